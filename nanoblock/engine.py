@@ -1,0 +1,399 @@
+"""The driver: allocation, initial state, sampling, progress, storage and resumption.
+
+:func:`simulate` turns a :class:`~nanoblock.params.Scenario` into an ``xarray.Dataset``
+of samples (variables of :data:`nanoblock.store.SAMPLES`), optionally streaming into a
+zarr store that a killed run resumes from. The physics lives in :mod:`nanoblock.kernels`.
+"""
+
+from __future__ import annotations
+
+import time as wallclock
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numba
+import numpy as np
+import xarray as xr
+from scipy.linalg import solve_banded
+from tqdm.auto import tqdm
+
+import nanoblock
+from nanoblock.kernels.blocks import landing_overshoot
+from nanoblock.kernels.chain import reduced_stresses
+from nanoblock.kernels.contacts import total_contact_area
+from nanoblock.kernels.layout import PARAMS, SLIDER
+from nanoblock.kernels.rng import seed_streams
+from nanoblock.kernels.stepper import advance_to, settle
+from nanoblock.params import Scenario, ScenarioError, resolve_seed
+from nanoblock.store import SAMPLES, SNAPSHOTS, RunStore, dataset
+from nanoblock.tables import hazard_table
+from nanoblock.theory.meanfield import MeanFieldJoint, sample_q_stationary
+
+FLUSH_SECONDS = 5.0
+"""Wall time between flushes of samples (and checkpoints) to the store."""
+
+
+def kernel_parameters(scenario: Scenario) -> np.ndarray:
+    """The one-element :data:`~nanoblock.kernels.layout.PARAMS` record of a scenario."""
+    joint, interface = scenario.joint, scenario.interface
+    omega1_sq = joint.k1 / joint.block_mass
+    kappa = joint.k2 / joint.k1
+    params = np.zeros(1, dtype=PARAMS)
+    record = params[0]
+    record["omega_a"] = joint.attempt_frequency
+    record["rho_max"] = joint.rho_max
+    record["sigma_a"] = joint.threshold_stress
+    record["kappa"] = kappa
+    record["slip_chain"] = 1 if joint.slip == "chain" else 0
+    for name, neighbours in (("eta_free", 0), ("eta_end", 1), ("eta_interior", 2)):
+        record[name] = landing_overshoot(omega1_sq * (1 + neighbours * kappa), joint.damping)
+    record["omega1_sq"] = omega1_sq
+    record["damping"] = joint.damping
+    record["memory_length"] = interface.memory_length
+    record["aging_m"] = interface.aging_m
+    record["aging_time"] = interface.aging_time
+    record["contact_area"] = interface.real_area / interface.n_contacts
+    record["stiffness"] = scenario.loading.stiffness
+    record["step_slip"] = scenario.step_slip
+    return params
+
+
+def protocol_table(scenario: Scenario) -> np.ndarray:
+    """``(3, S + 1)`` segment start times [s], velocities [m/s] and start positions [m]."""
+    steps = scenario.loading.steps
+    durations = np.array([step.length for step in steps])
+    velocities = np.array([step.load_velocity for step in steps])
+    starts = np.concatenate(([0.0], np.cumsum(durations)))
+    positions = np.concatenate(([0.0], np.cumsum(durations * velocities)))
+    starts[-1] = np.inf  # the last segment runs on: sample times never leave the protocol
+    return np.vstack((starts, np.append(velocities, 0.0), positions))
+
+
+def mean_field_joint(scenario: Scenario) -> MeanFieldJoint:
+    """The joint as seen by the analytic mean-field theory (001/Eqs. 24-30)."""
+    joint = scenario.joint
+    return MeanFieldJoint(
+        block_size=joint.block_size,
+        shear_modulus=joint.shear_modulus,
+        threshold_stress=joint.threshold_stress,
+        k1=joint.k1,
+        attempt_frequency=joint.attempt_frequency,
+        temperature=joint.temperature,
+        barrier=joint.barrier,
+    )
+
+
+@dataclass
+class InterfaceState:
+    """Every array the kernels evolve; with the slider record it is a full checkpoint."""
+
+    y: np.ndarray  # (contact, block) reduced stretch s / rho_max
+    h: np.ndarray  # (contact, block) remaining hazard
+    age: np.ndarray  # (contact,) [s]
+    slip: np.ndarray  # (contact,) slip since birth [m]
+    lifetime: np.ndarray  # (contact,) slip lifetime [m]
+    events: np.ndarray  # (contact,) cumulative depinnings
+    streams: np.ndarray  # (contact, 4) uint64 random streams
+    slider: np.ndarray = field(default_factory=lambda: np.zeros(1, dtype=SLIDER))
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The state as named arrays (the slider record as a float/int pair)."""
+        names = ("y", "h", "age", "slip", "lifetime", "events", "streams")
+        out = {name: getattr(self, name) for name in names}
+        out["slider"] = self.slider.view(np.uint8)
+        return out
+
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, np.ndarray]) -> InterfaceState:
+        """Inverse of :meth:`arrays`."""
+        slider = np.ascontiguousarray(arrays.pop("slider")).view(SLIDER).copy()
+        fields = {name: np.ascontiguousarray(value) for name, value in arrays.items()}
+        return cls(slider=slider, **fields)
+
+
+def _chain_stretch(stress: np.ndarray, kappa: float) -> np.ndarray:
+    """Solve (1 + kappa L) z = x along each chain (L: free-end Laplacian) for z."""
+    n = stress.shape[1]
+    if kappa == 0.0 or n == 1:
+        return stress.copy()
+    bands = np.zeros((3, n))
+    bands[0, 1:] = -kappa
+    bands[2, :-1] = -kappa
+    neighbours = np.full(n, 2.0)
+    neighbours[[0, -1]] = 1.0
+    bands[1] = 1.0 + kappa * neighbours
+    return solve_banded((1, 1), bands, stress.T).T
+
+
+def initial_state(scenario: Scenario, params: np.ndarray) -> InterfaceState:
+    """The interface at t = 0: unloaded (all blocks at zero stress, newborn contacts) or
+    steady (stresses from Q_st at the first velocity, 001/Eq. 27; contact ages and
+    remaining lifetimes from the stationary renewal process, both Exp with means D0/V
+    and D0)."""
+    seed = scenario.run.seed
+    interface = scenario.interface
+    shape = (interface.n_contacts, interface.blocks_per_contact)
+    contact_seed, setup_seed = np.random.SeedSequence(seed).spawn(2)
+    streams = seed_streams(int(contact_seed.generate_state(1)[0]), shape[0])
+    setup = np.random.default_rng(setup_seed)
+    memory = interface.memory_length
+    h = setup.standard_exponential(shape)
+    lifetime = memory * setup.standard_exponential(shape[0])
+    if scenario.run.initial_state == "unloaded":
+        y = np.zeros(shape)
+        age = np.zeros(shape[0])
+    else:
+        velocity = scenario.loading.first_velocity
+        joint = mean_field_joint(scenario)
+        rho = sample_q_stationary(shape[0] * shape[1], velocity, joint, setup)
+        y = _chain_stretch(rho.reshape(shape) / joint.rho_max, float(params[0]["kappa"]))
+        age = (memory / velocity) * setup.standard_exponential(shape[0])
+        if not np.isfinite(memory):
+            age = np.zeros(shape[0])
+    slip = np.zeros(shape[0])
+    events = np.zeros(shape[0], dtype=np.int64)
+    state = InterfaceState(y, h, age, slip, lifetime, events, streams)
+    slider = state.slider[0]
+    slider["velocity"] = scenario.loading.steps[0].load_velocity
+    area = total_contact_area(age, params[0])
+    slider["force"] = area * scenario.joint.threshold_stress * y.mean()
+    slider["stiffness"] = area * scenario.joint.threshold_stress / scenario.joint.rho_max
+    if np.isfinite(scenario.loading.stiffness):
+        # start in balance: the drive spring already carries the initial interface force
+        slider["load_point"] = 0.0
+        slider["position"] = -slider["force"] / scenario.loading.stiffness
+    return state
+
+
+def sample_times(scenario: Scenario) -> np.ndarray:
+    """Stored sample times: every ``record_every`` from 0, plus the protocol's end [s]."""
+    total = scenario.total_time
+    step = scenario.run.record_every
+    times = np.arange(0.0, total, step)
+    times = times[times < total - 1e-9 * step]
+    return np.append(times, total)
+
+
+class Run:
+    """One simulation: the scenario, the kernel inputs and the evolving state."""
+
+    def __init__(self, scenario: Scenario) -> None:
+        if scenario.run.seed is None:
+            raise ScenarioError("run.seed must be resolved before a run (see resolve_seed)")
+        self.scenario = scenario
+        self.params = kernel_parameters(scenario)
+        self.table = hazard_table(scenario.joint.barrier, scenario.joint.u)
+        self.protocol = protocol_table(scenario)
+        self.times = sample_times(scenario)
+        self.state = initial_state(scenario, self.params)
+        self.scratch = np.zeros((2, scenario.interface.n_contacts))
+        self.next_sample = 0
+        self.last_position = float(self.state.slider[0]["position"])
+
+    def _kernel_state(self) -> tuple[np.ndarray, ...]:
+        s = self.state
+        return (s.y, s.h, s.age, s.slip, s.lifetime)
+
+    def step_to_next_sample(self) -> dict[str, float]:
+        """Advance to the next sample time, balance the slider, and return the sample."""
+        t = self.times[self.next_sample]
+        s = self.state
+        advance_to(
+            t,
+            s.slider,
+            self._kernel_state(),
+            s.streams,
+            s.events,
+            self.scratch,
+            self.params,
+            self.table,
+            self.protocol,
+        )
+        settle(
+            s.slider,
+            self._kernel_state(),
+            s.streams,
+            s.events,
+            self.scratch,
+            self.params,
+            self.table,
+        )
+        slider = s.slider[0]
+        interval = self.scenario.run.record_every
+        position = float(slider["position"])
+        velocity = (position - self.last_position) / interval if self.next_sample else 0.0
+        if self.next_sample == 0:
+            velocity = float(slider["velocity"])
+        self.last_position = position
+        self.next_sample += 1
+        force = float(slider["force"])
+        return {
+            "time": t,
+            "friction_force": force,
+            "friction_coefficient": force / self.scenario.interface.normal_force,
+            "slider_displacement": position,
+            "load_point_displacement": float(slider["load_point"]),
+            "slider_velocity": velocity,
+            "mean_contact_age": float(s.age.mean()),
+            "real_contact_area": total_contact_area(s.age, self.params[0]),
+            "n_events": int(s.events.sum()),
+        }
+
+    def snapshot(self) -> dict[str, np.ndarray]:
+        """Block-level state now: stresses [Pa], positions [m], pinned flags, ages [s]."""
+        s = self.state
+        record = self.params[0]
+        stress = reduced_stresses(s.y, float(record["kappa"])) * float(record["sigma_a"])
+        position = float(s.slider[0]["position"]) - s.y * float(record["rho_max"])
+        return {
+            "snapshot_time": np.array([self.times[self.next_sample - 1]]),
+            "block_stress": stress[None],
+            "block_position": position[None],
+            "block_pinned": np.ones((1, *s.y.shape), dtype=bool),
+            "contact_age": s.age[None].copy(),
+        }
+
+    @property
+    def done(self) -> bool:
+        """Whether every sample has been computed."""
+        return self.next_sample >= self.times.size
+
+    def checkpoint(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Arrays and progress needed to resume exactly from the current sample."""
+        progress = {
+            "samples": self.next_sample,
+            "last_position": self.last_position,
+            "simulated_time": float(self.times[self.next_sample - 1]),
+        }
+        return self.state.arrays(), progress
+
+    def restore(self, arrays: dict[str, np.ndarray], progress: dict[str, Any]) -> None:
+        """Continue from a checkpoint written by :meth:`checkpoint`."""
+        self.state = InterfaceState.from_arrays(dict(arrays))
+        self.next_sample = int(progress["samples"])
+        self.last_position = float(progress["last_position"])
+
+
+def provenance(scenario: Scenario) -> dict[str, Any]:
+    """Root attributes that make a store reproducible on its own."""
+    return {
+        "scenario": scenario.resolved_json(),
+        "seed": int(scenario.run.seed),
+        "nanoblock_version": nanoblock.__version__,
+        "numba_version": numba.__version__,
+        "numpy_version": np.__version__,
+        "title": "nanoblock run",
+        "complete": False,
+    }
+
+
+def _stack(samples: list[dict[str, Any]]) -> dict[str, np.ndarray]:
+    return {key: np.array([sample[key] for sample in samples]) for key in samples[0]}
+
+
+def _concat_snapshots(snaps: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    return {key: np.concatenate([snap[key] for snap in snaps]) for key in snaps[0]}
+
+
+def _snapshot_dataset(snaps: list[dict[str, np.ndarray]]) -> xr.Dataset:
+    return dataset(_concat_snapshots(snaps), SNAPSHOTS, "snapshot_time")
+
+
+def simulate(
+    scenario: Scenario,
+    store: str | Path | None = None,
+    *,
+    seed: int | None = None,
+    progress: bool = False,
+) -> xr.Dataset:
+    """Run ``scenario`` and return its samples as an ``xarray.Dataset``.
+
+    With ``store``, samples stream into a zarr v3 store as the run goes (flushed every
+    few seconds with a checkpoint); if the store holds an unfinished run of the same
+    scenario, the run resumes from its last checkpoint. Without a store, the Dataset
+    (with block snapshots if ``run.snapshot_every`` > 0) is built in memory.
+    """
+    scenario = resolve_seed(scenario, seed)
+    run = Run(scenario)
+    writer = RunStore(store) if store is not None else None
+    fresh = True
+    if writer is not None and writer.exists():
+        fresh = not _resume(run, writer)
+    samples: list[dict[str, Any]] = []
+    snaps: list[dict[str, np.ndarray]] = []
+    every = scenario.run.snapshot_every
+    all_samples: list[dict[str, Any]] = []
+    all_snaps: list[dict[str, np.ndarray]] = []
+    last_flush = wallclock.perf_counter()
+    bar = tqdm(
+        total=float(scenario.total_time),
+        unit="s sim",
+        disable=not progress,
+        leave=False,
+        bar_format="{l_bar}{bar}| {n:.3g}/{total:.3g} s simulated [{elapsed}<{remaining}{postfix}]",
+    )
+    bar.update(float(run.times[run.next_sample - 1]) if run.next_sample else 0.0)
+    started = wallclock.perf_counter()
+    events_at_start = int(run.state.events.sum())
+    while not run.done:
+        sample = run.step_to_next_sample()
+        samples.append(sample)
+        if every and (run.next_sample - 1) % every == 0:
+            snaps.append(run.snapshot())
+        bar.update(sample["time"] - bar.n)
+        rate = (sample["n_events"] - events_at_start) / max(
+            wallclock.perf_counter() - started, 1e-9
+        )
+        bar.set_postfix_str(
+            f"slip {sample['slider_displacement']:.3g} m, {rate:.3g} events/s", refresh=False
+        )
+        now = wallclock.perf_counter()
+        if writer is not None and (run.done or now - last_flush > FLUSH_SECONDS):
+            _flush(run, writer, samples, snaps, fresh)
+            fresh = False
+            samples, snaps = [], []
+            last_flush = now
+        elif writer is None:
+            all_samples.extend(samples)
+            all_snaps.extend(snaps)
+            samples, snaps = [], []
+    bar.close()
+    if writer is not None:
+        writer.update_attrs(complete=True)
+        return writer.open()
+    result = dataset(_stack(all_samples), SAMPLES, "time").assign_attrs(provenance(scenario))
+    result.attrs["complete"] = True
+    if all_snaps:
+        result = xr.merge([result, _snapshot_dataset(all_snaps)], combine_attrs="override")
+    return result
+
+
+def _flush(run: Run, writer: RunStore, samples, snaps, fresh: bool) -> None:
+    block = dataset(_stack(samples), SAMPLES, "time")
+    if fresh:
+        writer.create(block, provenance(run.scenario))
+    else:
+        writer.append(block)
+    if snaps:
+        writer.append_snapshots(_snapshot_dataset(snaps))
+    arrays, progress = run.checkpoint()
+    progress["snapshots"] = int(writer.open().sizes.get("snapshot_time", 0))
+    writer.write_checkpoint(arrays, progress)
+
+
+def _resume(run: Run, writer: RunStore) -> bool:
+    """Prepare ``run`` to continue the run stored in ``writer``; False to start afresh."""
+    stored = writer.attrs
+    if stored.get("scenario") != run.scenario.resolved_json():
+        raise ScenarioError(
+            f"{writer.path} holds a run of another scenario (or seed); "
+            "choose another --out path or delete the store"
+        )
+    checkpoint = writer.read_checkpoint()
+    if checkpoint is None:
+        return False
+    arrays, progress = checkpoint
+    writer.truncate(int(progress["samples"]), int(progress.get("snapshots", 0)))
+    run.restore(arrays, progress)
+    return True

@@ -1,0 +1,118 @@
+"""Exact depinning of pinned blocks on a linear stress ramp, and independent (k2 = 0) blocks.
+
+A pinned block's reduced stress x = sigma / sigma_a moves as x(t) = x0 + xdot t while the
+slider slides at constant velocity. It depins deterministically when |x| reaches 1, or
+thermally when its accumulated hazard omega_a int r(x(t)) dt (001/Eq. 24) reaches its
+Exp(1) threshold: the remaining hazard ``h`` is carried per block, so thermal escape is an
+exact time-dependent Poisson process, with no time-step coin flips (physics.md section 1).
+
+Arrays: ``y[i]`` reduced stretch s_i / rho_max of block i, ``h[i]`` remaining hazard.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nanoblock.kernels._jit import kernel
+from nanoblock.kernels.hazard import (
+    hazard_between,
+    inverse_cumulative,
+    rate,
+    signed_cumulative,
+)
+from nanoblock.kernels.rng import standard_exponential
+
+_SHORT_RAMP = 1e-9
+"""Ramps shorter than this (in x) are integrated to first order in their length."""
+
+
+@kernel
+def next_depinning(
+    x0: float, h: float, x_rate: float, horizon: float, omega_a: float, table: np.ndarray
+) -> tuple[float, float, float]:
+    """When a pinned block on the ramp x0 + x_rate t depins within ``horizon`` [s].
+
+    Returns ``(t, x, h_left)``: the depinning time t <= horizon and stress x, with
+    h_left = 0; or t = inf, the stress at the horizon, and the hazard still to go.
+    """
+    if abs(x0) >= 1.0:
+        return 0.0, x0, 0.0
+    need = h / omega_a  # reduced hazard [s] still to accumulate
+    if x_rate == 0.0:
+        r0 = rate(x0, table)
+        if r0 * horizon >= need:
+            return need / r0, x0, 0.0
+        return np.inf, x0, h - omega_a * r0 * horizon
+    direction = 1.0 if x_rate > 0.0 else -1.0
+    x_end = x0 + x_rate * horizon
+    crosses = direction * x_end >= 1.0
+    x_limit = direction if crosses else x_end
+    if abs(x_limit - x0) < _SHORT_RAMP:
+        available = rate(x0, table) * abs(x_limit - x0) / abs(x_rate)
+    else:
+        available = hazard_between(x0, x_limit, x_rate, horizon, table)
+    if available >= need:
+        if abs(x_limit - x0) < _SHORT_RAMP:
+            x_fire = x0 + direction * need * abs(x_rate) / rate(x0, table)
+        else:
+            level = signed_cumulative(x0, table) + direction * need * abs(x_rate)
+            magnitude = inverse_cumulative(abs(level), table)
+            x_fire = magnitude if level >= 0.0 else -magnitude
+        t_fire = (x_fire - x0) / x_rate
+        t_fire = min(max(t_fire, 0.0), horizon)
+        return t_fire, x_fire, 0.0
+    if crosses:
+        return (direction - x0) / x_rate, direction, 0.0
+    return np.inf, x_end, h - omega_a * available
+
+
+@kernel
+def advance_free_blocks(
+    y: np.ndarray,
+    h: np.ndarray,
+    jump: float,
+    x_rate: float,
+    duration: float,
+    eta: float,
+    omega_a: float,
+    table: np.ndarray,
+    stream: np.ndarray,
+) -> int:
+    """Advance independent blocks (k2 = 0, reduced stress x = y) over one slider segment.
+
+    The slider first jumps by ``jump`` (reduced, instantaneous), then slides for
+    ``duration`` [s] at ``x_rate`` [1/s]. A depinned block lands at x = -eta x_depin
+    (``eta`` = 0: the mean-field reset of 001/Fig. 14; eta > 0: the underdamped landing
+    of 001/Eq. 21) and draws a fresh Exp(1) threshold from the contact's ``stream``.
+    Returns the number of depinnings.
+    """
+    events = 0
+    for i in range(y.shape[0]):  # i = blocks of one contact
+        x = y[i] + jump
+        remaining = duration
+        while True:
+            t, x_at, h_left = next_depinning(x, h[i], x_rate, remaining, omega_a, table)
+            if t == np.inf:
+                x = x_at
+                h[i] = h_left
+                break
+            events += 1
+            x = -eta * x_at
+            h[i] = standard_exponential(stream)
+            remaining -= t
+        y[i] = x
+    return events
+
+
+@kernel
+def landing_overshoot(omega_0_sq: float, damping: float) -> float:
+    """eta = exp(-pi gamma / (2 omega_d)) of an isolated block (001/Eq. 21), 0 if overdamped.
+
+    A block released at rest with force f0 towards its equilibrium, its neighbours and
+    the plate fixed (omega_0^2 = spring / m_b [1/s^2]), first stops after half a damped
+    period with force -eta f0; with gamma >= 2 omega_0 it never stops short (eta = 0).
+    """
+    discriminant = omega_0_sq - 0.25 * damping**2
+    if discriminant <= 0.0:
+        return 0.0
+    return float(np.exp(-np.pi * damping / (2.0 * np.sqrt(discriminant))))

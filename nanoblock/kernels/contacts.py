@@ -1,0 +1,121 @@
+"""Contacts as agents: ageing, renewal and the force each contact carries (001/Eqs. 1-5).
+
+Arrays (c = contacts, i = blocks): ``y[c, i]`` reduced stretch, ``h[c, i]`` remaining
+hazard; per contact ``age[c]`` [s], ``slip[c]`` slider slip since birth [m],
+``lifetime[c]`` slip at which it dies [m] (Exp(D0), so that in steady sliding the mean
+age is D0 / V: the ageing law, 001/Eq. 3), ``events[c]`` cumulative depinnings and
+``streams[c]`` its random stream. A contact's force is its area
+Sigma_0 [1 + m ln(1 + age / tau_m)] (001/Eq. 5) times its blocks' mean stress.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import prange
+
+from nanoblock.kernels._jit import kernel
+from nanoblock.kernels.blocks import advance_free_blocks
+from nanoblock.kernels.chain import advance_chain
+from nanoblock.kernels.rng import standard_exponential
+
+
+@kernel
+def contact_area(age: float, params: np.ndarray) -> float:
+    """Load-bearing area of a contact of ``age`` [s]: 001/Eq. 5 [m^2]."""
+    return params.contact_area * (1.0 + params.aging_m * np.log1p(age / params.aging_time))
+
+
+@kernel
+def renew_contact(y_row, h_row, stream, params) -> float:
+    """Replace a contact by a fresh, unstressed one; returns its slip lifetime [m]."""
+    for i in range(y_row.shape[0]):
+        y_row[i] = 0.0
+        h_row[i] = standard_exponential(stream)
+    return params.memory_length * standard_exponential(stream)
+
+
+@kernel
+def _advance_blocks(y_row, h_row, jump, x_rate, duration, params, table, stream) -> int:
+    if params.kappa == 0.0 or y_row.shape[0] == 1:
+        eta = params.eta_free if params.slip_chain == 1 else 0.0
+        return advance_free_blocks(
+            y_row, h_row, jump, x_rate, duration, eta, params.omega_a, table, stream
+        )
+    return advance_chain(y_row, h_row, jump, x_rate, duration, params, table, stream)
+
+
+@kernel
+def advance_contact(
+    c, y, h, age, slip, lifetime, events, streams, jump, velocity, duration, params, table
+) -> None:
+    """Advance contact c: slider jump ``jump`` [m], then ``duration`` [s] at ``velocity``.
+
+    The contact dies when its slip since birth reaches its lifetime, at the exact instant
+    on the slider path, and the fresh contact takes the rest of the segment.
+    """
+    rho = params.rho_max
+    remaining = duration
+    pending = jump
+    while True:
+        gap = lifetime[c] - slip[c] - pending
+        if gap <= 0.0:
+            until_death = 0.0
+        elif velocity > 0.0 and velocity * remaining > gap:
+            until_death = gap / velocity
+        else:
+            until_death = np.inf
+        dies = until_death <= remaining
+        span = until_death if dies else remaining
+        events[c] += _advance_blocks(
+            y[c], h[c], pending / rho, velocity / rho, span, params, table, streams[c]
+        )
+        slip[c] += pending + velocity * span
+        age[c] += span
+        remaining -= span
+        pending = 0.0
+        if not dies:
+            return
+        lifetime[c] = renew_contact(y[c], h[c], streams[c], params)
+        slip[c] = 0.0
+        age[c] = 0.0
+
+
+@kernel(parallel=True)
+def advance_contacts(
+    y,
+    h,
+    age,
+    slip,
+    lifetime,
+    events,
+    streams,
+    force,
+    stiffness,
+    jump,
+    velocity,
+    duration,
+    param_array,
+    table,
+) -> None:
+    """Advance every contact (in parallel; each has its own stream) and store its force
+    ``force[c]`` [N] and elastic stiffness ``stiffness[c]`` = dF_c / dX [N/m].
+
+    ``param_array`` is the one-element PARAMS array (records cannot enter a parallel loop
+    by value)."""
+    for c in prange(y.shape[0]):
+        params = param_array[0]
+        advance_contact(
+            c, y, h, age, slip, lifetime, events, streams, jump, velocity, duration, params, table
+        )
+        area = contact_area(age[c], params)
+        force[c] = area * params.sigma_a * np.mean(y[c])
+        stiffness[c] = area * params.sigma_a / params.rho_max
+
+
+@kernel
+def total_contact_area(age: np.ndarray, params: np.ndarray) -> float:
+    """Sum of the contacts' load-bearing areas (001/Eq. 5) [m^2]."""
+    total = 0.0
+    for c in range(age.shape[0]):
+        total += contact_area(age[c], params)
+    return total

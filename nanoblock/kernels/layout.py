@@ -1,0 +1,42 @@
+"""Record layout of the scalar parameters every kernel reads (one structured array)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+PARAMS = np.dtype(
+    [
+        ("omega_a", np.float64),  # attempt frequency [1/s]
+        ("rho_max", np.float64),  # b^2 sigma_a / k1 [m]: reduced stress 1 <-> this stretch
+        ("sigma_a", np.float64),  # threshold stress [Pa]
+        ("kappa", np.float64),  # k2 / k1
+        ("slip_chain", np.int64),  # 1: Eq. 21 dynamics, 0: reset to zero force
+        ("eta_free", np.float64),  # landing overshoot of an isolated block, no neighbours
+        ("eta_end", np.float64),  # the same for a chain-end block (one neighbour)
+        ("eta_interior", np.float64),  # the same for an interior block (two neighbours)
+        ("omega1_sq", np.float64),  # k1 / m_b [1/s^2]
+        ("damping", np.float64),  # gamma [1/s]
+        ("memory_length", np.float64),  # D0 [m] (inf: no renewal)
+        ("aging_m", np.float64),  # m of 001/Eq. 5
+        ("aging_time", np.float64),  # tau_m [s]
+        ("contact_area", np.float64),  # Sigma_0 of one contact at birth [m^2]
+        ("stiffness", np.float64),  # drive spring K [N/m] (inf: rigid drive)
+        ("step_slip", np.float64),  # slider slip per internal step [m]
+    ]
+)
+"""Fields of the parameter record, with units."""
+
+SLIDER = np.dtype(
+    [
+        ("time", np.float64),  # t [s]
+        ("position", np.float64),  # X, balanced (pending jump included) [m]
+        ("load_point", np.float64),  # X_L(t) [m]
+        ("pending", np.float64),  # elastic jump still to apply to the blocks [m]
+        ("velocity", np.float64),  # predicted slider velocity for the next step [m/s]
+        ("last_dt", np.float64),  # previous internal step [s]
+        ("force", np.float64),  # interface force F at the last step [N]
+        ("stiffness", np.float64),  # interface stiffness dF/dX at the last step [N/m]
+        ("steps", np.int64),  # internal steps taken
+    ]
+)
+"""Slider and load-point state carried between kernel calls."""

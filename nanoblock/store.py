@@ -1,0 +1,186 @@
+"""The zarr v3 store of a run: a registry of output variables, streaming and checkpoints.
+
+Samples are appended along ``time`` as the run goes (xarray ``to_zarr(append_dim=...)``),
+block snapshots along ``snapshot_time``. After each flush the full kernel state is written
+to one of two alternating checkpoint slots in the ``checkpoint`` subgroup, and only then
+is the root attribute pointing to it updated, so a run killed at any moment keeps every
+flushed sample and a complete checkpoint to resume from.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+import zarr
+
+TIME_CHUNK = 4096
+"""Samples per zarr chunk along ``time``."""
+
+
+@dataclass(frozen=True)
+class VariableSpec:
+    """An output variable: its dims, dtype, units and long name."""
+
+    dims: tuple[str, ...]
+    units: str
+    long_name: str
+    dtype: str = "float64"
+
+
+SAMPLES: dict[str, VariableSpec] = {
+    "friction_coefficient": VariableSpec(("time",), "1", "friction coefficient mu = F / W"),
+    "friction_force": VariableSpec(("time",), "N", "interface friction force F"),
+    "slider_displacement": VariableSpec(("time",), "m", "slider displacement X"),
+    "load_point_displacement": VariableSpec(("time",), "m", "load-point displacement X_L"),
+    "slider_velocity": VariableSpec(
+        ("time",), "m/s", "slider velocity, mean over the preceding sample interval"
+    ),
+    "mean_contact_age": VariableSpec(("time",), "s", "mean age of the contacts"),
+    "real_contact_area": VariableSpec(("time",), "m2", "total load-bearing contact area"),
+    "n_events": VariableSpec(("time",), "1", "cumulative block depinnings", "int64"),
+}
+"""Per-sample variables (the public contract of a run's Dataset)."""
+
+SNAPSHOTS: dict[str, VariableSpec] = {
+    "block_stress": VariableSpec(
+        ("snapshot_time", "contact", "block"), "Pa", "shear stress on each block"
+    ),
+    "block_position": VariableSpec(
+        ("snapshot_time", "contact", "block"), "m", "position q of each block"
+    ),
+    "block_pinned": VariableSpec(
+        ("snapshot_time", "contact", "block"),
+        "1",
+        "block pinned (avalanches are resolved instantly, so every block is pinned at a sample)",
+        "bool",
+    ),
+    "contact_age": VariableSpec(("snapshot_time", "contact"), "s", "age of each contact"),
+}
+"""Block-level snapshots (the agents' trajectories)."""
+
+COORDINATES: dict[str, VariableSpec] = {
+    "time": VariableSpec(("time",), "s", "simulated time"),
+    "snapshot_time": VariableSpec(("snapshot_time",), "s", "simulated time of the snapshot"),
+}
+
+
+def dataset(
+    values: Mapping[str, np.ndarray], specs: Mapping[str, VariableSpec], coord: str
+) -> xr.Dataset:
+    """Build a Dataset from arrays, checked against ``specs`` and carrying their attrs."""
+    missing = set(specs) - set(values)
+    if missing:
+        raise KeyError(f"missing output variables: {sorted(missing)}")
+    data_vars = {}
+    for name, spec in specs.items():
+        array = np.asarray(values[name], dtype=spec.dtype)
+        if array.ndim != len(spec.dims):
+            raise ValueError(f"{name}: expected dims {spec.dims}, got shape {array.shape}")
+        data_vars[name] = xr.Variable(
+            spec.dims, array, {"units": spec.units, "long_name": spec.long_name}
+        )
+    coord_spec = COORDINATES[coord]
+    coords = {
+        coord: xr.Variable(
+            (coord,),
+            np.asarray(values[coord], dtype=float),
+            {"units": coord_spec.units, "long_name": coord_spec.long_name},
+        )
+    }
+    return xr.Dataset(data_vars, coords)
+
+
+class RunStore:
+    """A run's zarr v3 store: samples, snapshots, provenance attrs and checkpoints."""
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+
+    def exists(self) -> bool:
+        """Whether a store has been created at the path."""
+        return (self.path / "zarr.json").exists()
+
+    @property
+    def attrs(self) -> dict[str, Any]:
+        """Root attributes (provenance, progress, checkpoint pointer)."""
+        return dict(zarr.open_group(self.path, mode="r").attrs)
+
+    def update_attrs(self, **attrs: Any) -> None:
+        """Set root attributes."""
+        zarr.open_group(self.path, mode="a").attrs.update(attrs)
+
+    def create(self, first: xr.Dataset, attrs: Mapping[str, Any]) -> None:
+        """Write the first samples and the provenance attributes (replacing any store)."""
+        first = first.assign_attrs(dict(attrs))
+        encoding = {name: {"chunks": (TIME_CHUNK,)} for name in SAMPLES}
+        first.to_zarr(self.path, mode="w", zarr_format=3, consolidated=False, encoding=encoding)
+
+    def append(self, samples: xr.Dataset) -> None:
+        """Append samples along ``time``."""
+        samples.to_zarr(self.path, append_dim="time", consolidated=False)
+
+    def append_snapshots(self, snapshots: xr.Dataset) -> None:
+        """Append block snapshots along ``snapshot_time`` (creating them the first time)."""
+        if "snapshot_time" in self._root_arrays():
+            snapshots.to_zarr(self.path, append_dim="snapshot_time", consolidated=False)
+        else:
+            n_contacts, n_blocks = snapshots.sizes["contact"], snapshots.sizes["block"]
+            chunks = (1, min(n_contacts, max(1, 2**20 // max(n_blocks, 1))), n_blocks)
+            encoding = {
+                name: {"chunks": chunks[: len(spec.dims)]} for name, spec in SNAPSHOTS.items()
+            }
+            snapshots.to_zarr(self.path, mode="a", consolidated=False, encoding=encoding)
+
+    def _root_arrays(self) -> set[str]:
+        return set(zarr.open_group(self.path, mode="r").array_keys())
+
+    def n_samples(self) -> int:
+        """Number of samples stored along ``time``."""
+        return int(zarr.open_group(self.path, mode="r")["time"].shape[0])
+
+    def truncate(self, n_samples: int, n_snapshots: int) -> None:
+        """Drop samples (and snapshots) written after the last checkpoint."""
+        group = zarr.open_group(self.path, mode="a")
+        for name in group.array_keys():
+            array = group[name]
+            dims = array.metadata.dimension_names or ()
+            if dims and dims[0] in ("time", "snapshot_time"):
+                keep = n_samples if dims[0] == "time" else n_snapshots
+                array.resize((keep, *array.shape[1:]))
+
+    def write_checkpoint(
+        self, arrays: Mapping[str, np.ndarray], progress: Mapping[str, Any]
+    ) -> None:
+        """Store the full kernel state in the free slot, then point the root attrs at it."""
+        root = zarr.open_group(self.path, mode="a")
+        current = root.attrs.get("checkpoint", {}).get("slot")
+        slot = "b" if current == "a" else "a"
+        group = root.require_group("checkpoint").require_group(slot)
+        for name, array in arrays.items():
+            group.create_array(name, data=np.asarray(array), overwrite=True)
+        root.attrs.update({"checkpoint": {"slot": slot, **progress}, "progress": dict(progress)})
+
+    def read_checkpoint(self) -> tuple[dict[str, np.ndarray], dict[str, Any]] | None:
+        """The last complete checkpoint (arrays, progress), or None."""
+        root = zarr.open_group(self.path, mode="r")
+        pointer = root.attrs.get("checkpoint")
+        if not pointer:
+            return None
+        group = root["checkpoint"][pointer["slot"]]
+        arrays = {name: group[name][...] for name in group.array_keys()}
+        return arrays, {k: v for k, v in pointer.items() if k != "slot"}
+
+    def open(self) -> xr.Dataset:
+        """Open the stored run lazily."""
+        return xr.open_zarr(self.path, consolidated=False)
+
+
+def scenario_of(store: RunStore) -> dict[str, Any]:
+    """The resolved scenario stored with a run, as a mapping."""
+    return json.loads(store.attrs["scenario"])

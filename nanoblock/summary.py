@@ -1,0 +1,33 @@
+"""A short text summary of a run, for the CLI and ``nanoblock info``."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import xarray as xr
+
+
+def summarize(run: xr.Dataset, wall_seconds: float | None = None) -> str:
+    """Key numbers of a run: size, slip, events, friction levels (and throughput)."""
+    scenario = json.loads(run.attrs["scenario"])
+    interface = scenario["interface"]
+    mu = run.friction_coefficient.values
+    slip = float(run.slider_displacement[-1] - run.slider_displacement[0])
+    events = int(run.n_events[-1])
+    half = mu[mu.size // 2 :]
+    lines = [
+        f"contacts x blocks     {interface['n_contacts']} x {interface['blocks_per_contact']}",
+        f"seed                  {run.attrs['seed']}",
+        f"samples               {mu.size} over {float(run.time[-1]):.4g} s simulated",
+        f"slider slip           {slip * 1e6:.4g} um",
+        f"block depinnings      {events:,}",
+        f"friction coefficient  first {mu[0]:.4f}  peak {np.max(mu):.4f}  last {mu[-1]:.4f}",
+        f"                      mean of last half {half.mean():.4f} +- {half.std():.2g} (sd)",
+        f"mean contact age      {float(run.mean_contact_age[-1]):.4g} s (last sample)",
+    ]
+    if wall_seconds is not None:
+        lines.append(
+            f"wall time             {wall_seconds:.3g} s ({events / wall_seconds:.3g} events/s)"
+        )
+    return "\n".join(lines)

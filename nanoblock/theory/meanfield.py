@@ -1,0 +1,709 @@
+"""Analytic mean-field theory of Persson's nanoblock joint (001/Eqs. 24-30).
+
+Mean-field limit of the joint (physics.md section 1; 001/Fig. 14): uncoupled blocks
+(k2 = 0) with reduced coordinate rho~ in [0, rho~_max], rho~_max = b^2 sigma_a / k1, and
+stress sigma = k1 rho~ / b^2. A block is advected at the slider velocity V
+(d rho~ / dt = V), escapes thermally at the rate (001/Eq. 24)
+
+    1 / tau = omega_a exp(-u f(x)),   x = sigma / sigma_a = rho~ / rho~_max,
+
+(f the reduced barrier of :mod:`nanoblock.barriers`, u = U_a / k_B T), fires for certain at
+rho~_max, and restarts unstressed at rho~ = 0. Its stationary density is 001/Eq. 27,
+
+    Q_st(rho~) = exp(-I(rho~)) / Z,   I(rho~) = int_0^rho~ d rho' / (V tau(rho')),
+
+and the friction stress sigma_s(V) is the mean stress under Q_st (001/Eq. 28).
+
+Numerics. With Lambda = omega_a rho~_max / V and J(x) = int_0^x exp(-u f(s)) ds the
+survival exponent is I = Lambda J(x). Persson's law has the closed form
+J(x) = exp(-u (1 - x^2)) D(sqrt(u) x) / sqrt(u) (D: Dawson's function); other laws use a
+cached Gauss-Legendre table of J. All integrals over x run in t = 1 - sqrt(1 - x), which
+makes the generic (1 - x)^(3/2) saddle-node barrier analytic at x = 1, with Gauss-Legendre
+cells whose edges are the points where I crosses fixed levels (1e-16 ... 745): the cells
+follow the cutoff however sharp it is (u up to 500 and beyond) and wherever it lies
+(x_c from 1e-17 to 1), and no exponential can overflow.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Callable
+from dataclasses import dataclass, fields
+from functools import lru_cache
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.interpolate import PchipInterpolator
+from scipy.special import dawsn
+
+from nanoblock.barriers import (
+    BARRIERS,
+    BOLTZMANN,
+    barrier_law,
+    reduced_barrier_height,
+    zero_stress_barrier,
+)
+
+__all__ = [
+    "EULER_GAMMA",
+    "MeanFieldJoint",
+    "cutoff_rho",
+    "escape_rate",
+    "firing_stress_asymptotic",
+    "log_slope",
+    "log_slope_asymptotic",
+    "mean_firing_reduced_stress",
+    "q_stationary",
+    "q_stationary_cdf",
+    "sample_q_stationary",
+    "steady_stress",
+    "steady_stress_asymptotic",
+    "steady_stress_loglaw",
+    "survival_exponent",
+]
+
+FloatArray = NDArray[np.float64]
+
+EULER_GAMMA = float(np.euler_gamma)
+"""Euler's constant gamma_E (dimensionless)."""
+
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(20)
+_TABLE_GL_X, _TABLE_GL_W = np.polynomial.legendre.leggauss(16)
+_TABLE_CELLS = 2048
+_LEVELS = np.concatenate(
+    [10.0 ** np.arange(-16, -1), np.geomspace(0.1, 40.0, 24), np.geomspace(40.0, 745.0, 6)[1:]]
+)
+_LOG_LEVELS = np.log(_LEVELS)
+_LOG_I_CAP = 700.0  # exp(-exp(700)) == 0: larger exponents change nothing
+_BISECTIONS = 64
+_SAMPLE_SUBCELLS = 16
+_PEAK_GRID = 4097
+
+
+@dataclass(frozen=True)
+class MeanFieldJoint:
+    """Parameters of a mean-field nanoblock joint (physics.md section 1; 001/Sec. III).
+
+    Parameters
+    ----------
+    block_size : float
+        Block size b [m].
+    shear_modulus : float
+        Joint shear modulus E_J [Pa].
+    threshold_stress : float
+        Athermal depinning threshold sigma_a [Pa].
+    k1 : float
+        Stiffness coupling a block to its driving point [N/m] (k1 ~ E_J b).
+    attempt_frequency : float
+        Attempt frequency omega_a of thermal escape [1/s] (001/Eq. 24).
+    temperature : float
+        Temperature T [K].
+    barrier : str
+        Name of the barrier law in :data:`nanoblock.barriers.BARRIERS`.
+    """
+
+    block_size: float
+    shear_modulus: float
+    threshold_stress: float
+    k1: float
+    attempt_frequency: float
+    temperature: float
+    barrier: str = "persson"
+
+    def __post_init__(self) -> None:
+        for field in fields(self):
+            if field.name == "barrier":
+                continue
+            value = getattr(self, field.name)
+            if not (
+                isinstance(value, numbers.Real)
+                and not isinstance(value, bool)
+                and math.isfinite(value)
+                and value > 0
+            ):
+                raise ValueError(
+                    f"{field.name} must be a finite positive number (0 < {field.name} < inf), "
+                    f"got {value!r}"
+                )
+        if self.barrier not in BARRIERS:
+            raise ValueError(
+                f"barrier must be one of {', '.join(sorted(BARRIERS))}, got {self.barrier!r}"
+            )
+
+    @property
+    def rho_max(self) -> float:
+        """rho~_max = b^2 sigma_a / k1 [m], the athermal depinning coordinate."""
+        return self.block_size**2 * self.threshold_stress / self.k1
+
+    @property
+    def barrier_energy(self) -> float:
+        """U_a = sigma_a b^3 (sigma_a / E_J) [J], the zero-stress barrier (001/Eq. 37)."""
+        return zero_stress_barrier(self.threshold_stress, self.block_size, self.shear_modulus)
+
+    @property
+    def u(self) -> float:
+        """u = U_a / (k_B T) (dimensionless)."""
+        return reduced_barrier_height(
+            self.threshold_stress, self.block_size, self.shear_modulus, self.temperature
+        )
+
+    @property
+    def sigma_bar(self) -> float:
+        """sigma_bar = sigma_a / 2 [Pa], the athermal friction stress (001 before Eq. 24)."""
+        return 0.5 * self.threshold_stress
+
+    @property
+    def alpha(self) -> float:
+        """alpha = k_B T E_J / (8 sigma_bar^2 b^3) = 1 / (2u) (001/Eqs. 30, 32)."""
+        return (
+            BOLTZMANN
+            * self.temperature
+            * self.shear_modulus
+            / (8.0 * self.sigma_bar**2 * self.block_size**3)
+        )
+
+    @property
+    def v_star(self) -> float:
+        """V* = e^gamma_E omega_a rho~_max k_B T / (2 U_a) [m/s] (physics.md section 1)."""
+        return math.exp(EULER_GAMMA) * self.attempt_frequency * self.rho_max / (2.0 * self.u)
+
+    @property
+    def activation_volume(self) -> float:
+        """v_act = 8 b^3 sigma_bar / E_J [m^3] (001/Eq. 33)."""
+        return 8.0 * self.block_size**3 * self.sigma_bar / self.shear_modulus
+
+
+class _Moments(NamedTuple):
+    """N_k = int_0^1 x^k S dx and M_k = int_0^1 x^k I S dx, S = exp(-I) (dimensionless)."""
+
+    n0: FloatArray
+    n1: FloatArray
+    m0: FloatArray
+    m1: FloatArray
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def _velocity(velocity: ArrayLike) -> FloatArray:
+    """Validated velocity array V [m/s]."""
+    v = np.asarray(velocity, dtype=float)
+    if not np.all(np.isfinite(v) & (v > 0)):
+        raise ValueError("V must be finite and positive (0 < V < inf) [m/s]")
+    return v
+
+
+def _log_lambda(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
+    """ln Lambda = ln(omega_a rho~_max / V) (dimensionless)."""
+    return math.log(joint.attempt_frequency * joint.rho_max) - np.log(_velocity(velocity))
+
+
+def _x_to_t(x: ArrayLike) -> FloatArray:
+    """t = 1 - sqrt(1 - x), written without cancellation."""
+    x = np.asarray(x, dtype=float)
+    return x / (1.0 + np.sqrt(1.0 - x))
+
+
+def _t_to_x(t: ArrayLike) -> FloatArray:
+    """x = 1 - (1 - t)^2, written without cancellation."""
+    t = np.asarray(t, dtype=float)
+    return t * (2.0 - t)
+
+
+def _gauss_rule(
+    a: ArrayLike, b: ArrayLike, nodes: FloatArray, weights: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Gauss-Legendre nodes and weights on [a, b] (broadcast; nodes on a new last axis)."""
+    a = np.asarray(a, dtype=float)[..., None]
+    half = 0.5 * (np.asarray(b, dtype=float)[..., None] - a)
+    return a + half * (nodes + 1.0), half * weights
+
+
+def _bisect(func: Callable[[FloatArray], FloatArray], lo: FloatArray, hi: FloatArray) -> FloatArray:
+    """Vectorised bisection for the root of a function increasing on [lo, hi]."""
+    lo, hi = np.broadcast_arrays(np.asarray(lo, dtype=float), np.asarray(hi, dtype=float))
+    for _ in range(_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        above = func(mid) > 0.0
+        lo, hi = np.where(above, lo, mid), np.where(above, mid, hi)
+    return 0.5 * (lo + hi)
+
+
+def _unique_velocities(velocity: FloatArray) -> tuple[FloatArray, NDArray[np.intp]]:
+    """Distinct velocities and the inverse index (flattened)."""
+    return np.unique(velocity.ravel(), return_inverse=True)
+
+
+# ------------------------------------------------------------ survival exponent I(x)
+
+
+def _j_rate_t(t: FloatArray, barrier: str, u: float) -> FloatArray:
+    """dJ/dt = exp(-u f(x(t))) dx/dt, the reduced escape rate in the t variable."""
+    return np.exp(-u * barrier_law(barrier)(_t_to_x(t))) * 2.0 * (1.0 - t)
+
+
+@lru_cache(maxsize=64)
+def _j_table(barrier: str, u: float) -> FloatArray:
+    """Cumulative J at the uniform t-grid edges k / _TABLE_CELLS (Gauss-Legendre per cell)."""
+    edges = np.linspace(0.0, 1.0, _TABLE_CELLS + 1)
+    t, w = _gauss_rule(edges[:-1], edges[1:], _TABLE_GL_X, _TABLE_GL_W)
+    cells = np.sum(w * _j_rate_t(t, barrier, u), axis=-1)
+    return np.concatenate([[0.0], np.cumsum(cells)])
+
+
+def _log_j_quadrature(x: FloatArray, barrier: str, u: float) -> FloatArray:
+    """ln J(x) for any barrier law: table up to the cell edge, Gauss-Legendre beyond."""
+    table = _j_table(barrier, u)
+    t = _x_to_t(np.clip(x, 0.0, 1.0))
+    cell = np.minimum((t * _TABLE_CELLS).astype(np.intp), _TABLE_CELLS - 1)
+    s, w = _gauss_rule(cell / _TABLE_CELLS, t, _TABLE_GL_X, _TABLE_GL_W)
+    with np.errstate(divide="ignore"):
+        return np.log(table[cell] + np.sum(w * _j_rate_t(s, barrier, u), axis=-1))
+
+
+def _log_j_persson(x: FloatArray, u: float) -> FloatArray:
+    """ln J(x) for Persson's law: J = exp(-u (1 - x^2)) D(sqrt(u) x) / sqrt(u)."""
+    root_u = math.sqrt(u)
+    with np.errstate(divide="ignore"):
+        return -u * (1.0 - x) * (1.0 + x) + np.log(dawsn(root_u * x) / root_u)
+
+
+def _log_j(x: ArrayLike, joint: MeanFieldJoint, method: str = "auto") -> FloatArray:
+    """ln J(x), J(x) = int_0^x exp(-u f(s)) ds, for x in [0, 1] (-inf at x = 0)."""
+    x = np.asarray(x, dtype=float)
+    if method == "auto":
+        method = "closed_form" if joint.barrier == "persson" else "quadrature"
+    if method == "quadrature":
+        return _log_j_quadrature(x, joint.barrier, joint.u)
+    if method == "closed_form" and joint.barrier == "persson":
+        return _log_j_persson(x, joint.u)
+    raise ValueError(
+        f"method must be 'auto', 'quadrature' or (Persson barrier only) 'closed_form', "
+        f"got {method!r} for barrier {joint.barrier!r}"
+    )
+
+
+# ------------------------------------------------------- quadrature over Q_st(x)
+
+
+def _level_edges(log_lam: FloatArray, joint: MeanFieldJoint) -> FloatArray:
+    """t-edges [0, t(I = L_1), ..., t(I = L_K), 1] of the adaptive cells, shape (..., K + 2).
+
+    Since exp(-u) x <= J(x) <= x, the level ln J = target lies in
+    ln x in [target, target + u]; bisection runs in ln x, so tiny cutoffs stay resolved.
+    """
+    target = _LOG_LEVELS - np.asarray(log_lam, dtype=float)[..., None]
+    hi = np.minimum(target + joint.u, 0.0)
+    lo = np.minimum(target, hi)
+    log_x = _bisect(lambda lx: _log_j(np.exp(lx), joint) - target, lo, hi)
+    t = np.maximum.accumulate(_x_to_t(np.exp(log_x)), axis=-1)
+    ends = np.ones((*t.shape[:-1], 1))
+    return np.concatenate([0.0 * ends, t, ends], axis=-1)
+
+
+def _survival_nodes(
+    edges: FloatArray, log_lam: FloatArray, joint: MeanFieldJoint
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Nodes x, weights w * S (S = exp(-I)) and I on the cells between t-edges.
+
+    ``edges`` has shape (..., K + 2) and ``log_lam`` shape (...); outputs have shape
+    (..., K + 1, n_gauss). Sum over the two last axes to integrate dx.
+    """
+    t, w = _gauss_rule(edges[..., :-1], edges[..., 1:], _GL_X, _GL_W)
+    x = _t_to_x(t)
+    log_i = np.asarray(log_lam, dtype=float)[..., None, None] + _log_j(x, joint)
+    exponent = np.exp(np.minimum(log_i, _LOG_I_CAP))
+    return x, w * 2.0 * (1.0 - t) * np.exp(-exponent), exponent
+
+
+def _moments(velocity: ArrayLike, joint: MeanFieldJoint) -> _Moments:
+    """Moments N_k, M_k of the survival S(x) = exp(-Lambda J(x)), shaped like V."""
+    log_lam = _log_lambda(velocity, joint)
+    x, ws, exponent = _survival_nodes(_level_edges(log_lam, joint), log_lam, joint)
+
+    def total(values: FloatArray) -> FloatArray:
+        return np.sum(values, axis=(-2, -1))
+
+    return _Moments(total(ws), total(ws * x), total(ws * exponent), total(ws * exponent * x))
+
+
+def _broadcast_rho_velocity(rho: ArrayLike, velocity: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """Broadcast rho~ [m] against a validated V [m/s]."""
+    rho_arr, v_arr = np.broadcast_arrays(np.asarray(rho, dtype=float), _velocity(velocity))
+    return rho_arr, v_arr
+
+
+# ------------------------------------------------------------------ public API
+
+
+def escape_rate(x: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
+    """Thermal escape rate 1/tau = omega_a exp(-u f(x)) [1/s] (001/Eq. 24).
+
+    Parameters
+    ----------
+    x : array_like
+        Reduced stress sigma / sigma_a (dimensionless; |x| is clipped to [0, 1]).
+    joint : MeanFieldJoint
+        Joint parameters.
+
+    Returns
+    -------
+    ndarray
+        Escape rate [1/s], same shape as ``x``.
+    """
+    return joint.attempt_frequency * np.exp(-joint.u * barrier_law(joint.barrier)(x))
+
+
+def survival_exponent(
+    rho: ArrayLike, velocity: ArrayLike, joint: MeanFieldJoint, method: str = "auto"
+) -> FloatArray:
+    """Survival exponent I(rho~) = int_0^rho~ d rho' / (V tau(rho')) (001/Eq. 27).
+
+    Parameters
+    ----------
+    rho : array_like
+        Reduced block coordinate rho~ >= 0 [m]; I = inf above rho~_max (certain firing).
+    velocity : array_like
+        Slider velocity V > 0 [m/s], broadcast against ``rho``.
+    joint : MeanFieldJoint
+        Joint parameters.
+    method : {"auto", "closed_form", "quadrature"}
+        "closed_form" is the Dawson-function result for Persson's law, "quadrature" the
+        tabulated Gauss-Legendre integral valid for every law; "auto" picks the former
+        when it applies.
+
+    Returns
+    -------
+    ndarray
+        I (dimensionless), shape of the broadcast inputs; exp(-I) is the probability that
+        a block reset at rho~ = 0 reaches rho~ without firing.
+    """
+    rho_arr, v_arr = _broadcast_rho_velocity(rho, velocity)
+    if np.any(rho_arr < 0) or np.any(np.isnan(rho_arr)):
+        raise ValueError("rho must be >= 0 [m]")
+    x = rho_arr / joint.rho_max
+    log_i = _log_lambda(v_arr, joint) + _log_j(np.minimum(x, 1.0), joint, method)
+    return np.where(x > 1.0, np.inf, np.exp(log_i))
+
+
+def mean_firing_reduced_stress(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
+    """Mean firing stress E[x_f] = int_0^1 exp(-I) dx in units of sigma_a (dimensionless).
+
+    A block's reduced stress at firing, x_f, has survival function exp(-I(x)); the
+    deterministic release at x = 1 is included. Also Z / rho~_max for Q_st (001/Eq. 27).
+
+    Parameters
+    ----------
+    velocity : array_like
+        Slider velocity V > 0 [m/s].
+    joint : MeanFieldJoint
+        Joint parameters.
+
+    Returns
+    -------
+    ndarray
+        E[x_f] (dimensionless), shaped like ``velocity``.
+    """
+    return _moments(velocity, joint).n0
+
+
+def q_stationary(rho: ArrayLike, velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
+    """Normalised stationary density Q_st(rho~, V) = exp(-I(rho~)) / Z [1/m] (001/Eq. 27).
+
+    Z = int_0^rho~_max exp(-I) d rho~ (by quadrature); the density vanishes outside
+    [0, rho~_max]. Blocks that survive to rho~_max fire there at once, so Q_st has no atom.
+
+    Parameters
+    ----------
+    rho : array_like
+        Reduced coordinate rho~ [m].
+    velocity : array_like
+        Slider velocity V > 0 [m/s], broadcast against ``rho``.
+    joint : MeanFieldJoint
+        Joint parameters.
+
+    Returns
+    -------
+    ndarray
+        Q_st [1/m], shape of the broadcast inputs.
+    """
+    rho_arr, v_arr = _broadcast_rho_velocity(rho, velocity)
+    inside = (rho_arr >= 0.0) & (rho_arr <= joint.rho_max)
+    exponent = survival_exponent(np.where(inside, rho_arr, 0.0), v_arr, joint)
+    speeds, inverse = _unique_velocities(v_arr)
+    z = joint.rho_max * _moments(speeds, joint).n0[inverse].reshape(v_arr.shape)
+    return np.where(inside, np.exp(-exponent) / z, 0.0)
+
+
+def q_stationary_cdf(rho: ArrayLike, velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
+    """Cumulative distribution int_0^rho~ Q_st d rho' of 001/Eq. 27 (dimensionless).
+
+    Cumulative sums over the adaptive Gauss-Legendre cells of the normalisation, plus one
+    Gauss-Legendre rule on the partial cell, so it is accurate to ~1e-12. 0 below
+    rho~ = 0, 1 from rho~_max on. Vectorised and broadcast over rho~ [m] and V [m/s].
+    """
+    rho_arr, v_arr = _broadcast_rho_velocity(rho, velocity)
+    speeds, inverse = _unique_velocities(v_arr)
+    log_lam = _log_lambda(speeds, joint)
+    edges = _level_edges(log_lam, joint)
+    cells = np.sum(_survival_nodes(edges, log_lam, joint)[1], axis=-1)
+    cumulative = np.concatenate([np.zeros((speeds.size, 1)), np.cumsum(cells, axis=-1)], axis=-1)
+    t_end = _x_to_t(np.clip(rho_arr.ravel() / joint.rho_max, 0.0, 1.0))
+    row_edges = edges[inverse]
+    cell = np.clip(np.sum(row_edges <= t_end[:, None], axis=-1) - 1, 0, cells.shape[-1] - 1)
+    start = np.take_along_axis(row_edges, cell[:, None], axis=-1)
+    partial_edges = np.concatenate([start, t_end[:, None]], axis=-1)
+    partial = np.sum(_survival_nodes(partial_edges, log_lam[inverse], joint)[1], axis=(-2, -1))
+    below = cumulative[inverse, cell]
+    return ((below + partial) / cumulative[inverse, -1]).reshape(rho_arr.shape)
+
+
+def _cdf_table(velocity: float, joint: MeanFieldJoint) -> tuple[FloatArray, FloatArray]:
+    """Reduced coordinates x and exact CDF values on a grid refined around the cutoff."""
+    edges = _level_edges(_log_lambda(velocity, joint), joint)
+    fractions = np.linspace(0.0, 1.0, _SAMPLE_SUBCELLS + 1)[:-1]
+    fine = np.append((edges[:-1, None] + np.diff(edges)[:, None] * fractions).ravel(), 1.0)
+    x = _t_to_x(fine)
+    return x, q_stationary_cdf(x * joint.rho_max, velocity, joint)
+
+
+def sample_q_stationary(
+    n: int,
+    velocity: float,
+    joint: MeanFieldJoint,
+    rng: np.random.Generator | int | None = None,
+) -> FloatArray:
+    """Draw n block coordinates rho~ [m] from Q_st (001/Eq. 27), e.g. a steady initial state.
+
+    Inverse-CDF sampling: the exact CDF is tabulated on ~1000 points concentrated around
+    the cutoff and inverted by monotone (PCHIP) interpolation.
+
+    Parameters
+    ----------
+    n : int
+        Number of samples (>= 0).
+    velocity : float
+        Slider velocity V > 0 [m/s] (scalar).
+    joint : MeanFieldJoint
+        Joint parameters.
+    rng : numpy.random.Generator, int or None
+        Random generator or seed.
+
+    Returns
+    -------
+    ndarray
+        Samples rho~ in [0, rho~_max] [m], shape (n,).
+    """
+    if np.ndim(velocity) != 0:
+        raise ValueError("velocity must be a scalar [m/s]")
+    x_grid, cdf = _cdf_table(float(velocity), joint)
+    keep = np.concatenate([[True], np.diff(cdf) > 0.0])
+    inverse = PchipInterpolator(cdf[keep], x_grid[keep])
+    draws = np.random.default_rng(rng).random(int(n))
+    return np.clip(inverse(draws), 0.0, 1.0) * joint.rho_max
+
+
+def steady_stress(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
+    """Steady friction stress sigma_s(V) = <sigma> under Q_st [Pa] (001/Eq. 28).
+
+    sigma_s = sigma_a N_1 / N_0 with N_k = int_0^1 x^k exp(-I(x)) dx, i.e.
+    sigma_a E[x_f^2] / (2 E[x_f]) over the firing stress x_f. Adaptive Gauss-Legendre
+    quadrature, relative accuracy ~1e-12.
+
+    Parameters
+    ----------
+    velocity : array_like
+        Slider velocity V > 0 [m/s].
+    joint : MeanFieldJoint
+        Joint parameters.
+
+    Returns
+    -------
+    ndarray
+        sigma_s [Pa], shaped like ``velocity``.
+    """
+    moments = _moments(velocity, joint)
+    return joint.threshold_stress * moments.n1 / moments.n0
+
+
+def log_slope(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
+    """Local slope d ln sigma_s / d ln V (dimensionless), exact derivative of 001/Eq. 28.
+
+    Since I is proportional to 1/V, d exp(-I) / d ln V = I exp(-I), hence
+    d ln sigma_s / d ln V = M_1 / N_1 - M_0 / N_0 with M_k = int x^k I exp(-I) dx.
+
+    Parameters
+    ----------
+    velocity : array_like
+        Slider velocity V > 0 [m/s].
+    joint : MeanFieldJoint
+        Joint parameters.
+
+    Returns
+    -------
+    ndarray
+        d ln sigma_s / d ln V (dimensionless), shaped like ``velocity``.
+    """
+    moments = _moments(velocity, joint)
+    return moments.m1 / moments.n1 - moments.m0 / moments.n0
+
+
+# --------------------------------------------- large-u asymptotics and the cutoff
+
+
+def _barrier_slope(x: FloatArray, joint: MeanFieldJoint) -> FloatArray:
+    """df/dx of the reduced barrier by complex-step differentiation (exact to rounding).
+
+    Needs the law's ``reduced`` function to be a complex-analytic numpy expression, as the
+    registered laws are (polynomials and powers of 1 - x).
+    """
+    step = 1e-30
+    return np.imag(BARRIERS[joint.barrier].reduced(x + 1j * step)) / step
+
+
+def _balance(x: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
+    """g(x) = u f(x) + ln(u |f'(x)|): activation beats advection where ln Lambda > g(x)."""
+    x = np.asarray(x, dtype=float)
+    with np.errstate(divide="ignore"):
+        return joint.u * barrier_law(joint.barrier)(x) + np.log(
+            joint.u * np.abs(_barrier_slope(x, joint))
+        )
+
+
+@lru_cache(maxsize=64)
+def _balance_peak(joint: MeanFieldJoint) -> float:
+    """x of the maximum of g on (0, 1); g decreases from there to x = 1."""
+    x = _t_to_x(np.linspace(0.0, 1.0, _PEAK_GRID)[1:-1])
+    return float(x[np.argmax(_balance(x, joint))])
+
+
+def _balance_root(log_rhs: FloatArray, joint: MeanFieldJoint) -> FloatArray:
+    """Root x of g(x) = log_rhs on the decreasing branch of g (dimensionless).
+
+    1 where log_rhs <= g(1) (advection wins up to the threshold), NaN where
+    log_rhs > max g (activation wins everywhere: blocks creep off near zero stress).
+    """
+    log_rhs = np.asarray(log_rhs, dtype=float)
+    peak = _balance_peak(joint)
+    root = _bisect(lambda x: log_rhs - _balance(x, joint), np.full_like(log_rhs, peak), 1.0)
+    root = np.where(log_rhs <= _balance(1.0, joint), 1.0, root)
+    return np.where(log_rhs > _balance(peak, joint), np.nan, root)
+
+
+def cutoff_rho(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
+    """Cutoff rho~_c(V) of Q_st [m] (001/Eq. 29): tau(rho~_c) = k_B T / (V |dU/d rho~|).
+
+    In reduced form Lambda exp(-u f(x_c)) = u |f'(x_c)|, solved on the branch where the
+    escape rate grows faster than advection. At large u, I(rho~_c) = 1 + O(1/(u x_c^2)),
+    so Q_st(rho~_c) ~ Q_st(0) / e. Returns rho~_max if the condition is never met
+    (V > V* e^-gamma for Persson's law) and NaN where no cutoff exists (activation
+    dominates everywhere: small u and tiny V).
+
+    Parameters
+    ----------
+    velocity : array_like
+        Slider velocity V > 0 [m/s].
+    joint : MeanFieldJoint
+        Joint parameters.
+
+    Returns
+    -------
+    ndarray
+        rho~_c [m], shaped like ``velocity``.
+    """
+    return joint.rho_max * _balance_root(_log_lambda(velocity, joint), joint)
+
+
+def firing_stress_asymptotic(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
+    """Mean reduced firing stress x_f at large u (physics.md section 1), dimensionless.
+
+    Near the cutoff I(x) ~ Lambda exp(-u f) / (u |f'|) and ln I at firing is Gumbel
+    distributed with mean -gamma_E, so x_f solves u f(x_f) + ln(u |f'(x_f)|) =
+    ln(e^gamma_E Lambda); for Persson's law u (1 - x_f^2) = ln(e^gamma_E omega_a rho~_max /
+    (2 u V x_f)). Returns 1 for V >= V* (no root below the threshold: saturation) and NaN
+    where the activated regime has no root (small u, tiny V).
+
+    Parameters
+    ----------
+    velocity : array_like
+        Slider velocity V > 0 [m/s].
+    joint : MeanFieldJoint
+        Joint parameters.
+
+    Returns
+    -------
+    ndarray
+        x_f = sigma_f / sigma_a (dimensionless), shaped like ``velocity``.
+    """
+    return _balance_root(EULER_GAMMA + _log_lambda(velocity, joint), joint)
+
+
+def steady_stress_asymptotic(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
+    """Large-u steady stress sigma_s ~ sigma_a x_f / 2 [Pa] (physics.md section 1).
+
+    Relative error O(1/(u x_f^2)^2) against 001/Eq. 28.
+
+    Parameters
+    ----------
+    velocity : array_like
+        Slider velocity V > 0 [m/s].
+    joint : MeanFieldJoint
+        Joint parameters.
+
+    Returns
+    -------
+    ndarray
+        sigma_a x_f / 2 [Pa], shaped like ``velocity``.
+    """
+    return 0.5 * joint.threshold_stress * firing_stress_asymptotic(velocity, joint)
+
+
+def log_slope_asymptotic(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
+    """Large-u slope d ln x_f / d ln V (dimensionless) of :func:`firing_stress_asymptotic`.
+
+    For Persson's law it equals 1 / (2 u x_f^2 - 1), which tends to alpha = 1 / (2u) as
+    V -> V*; for any law -1 / (x_f g'(x_f)), g(x) = u f(x) + ln(u |f'(x)|). Computed by a
+    fourth-order backward difference in ln V (step 1e-3), which stays below the saturation
+    kink at V*; 0 at saturation (V >= V*).
+
+    Parameters
+    ----------
+    velocity : array_like
+        Slider velocity V > 0 [m/s].
+    joint : MeanFieldJoint
+        Joint parameters.
+
+    Returns
+    -------
+    ndarray
+        d ln x_f / d ln V (dimensionless), shaped like ``velocity``.
+    """
+    log_v = np.log(_velocity(velocity))
+    step = 1e-3
+    coefficients = (25.0, -48.0, 36.0, -16.0, 3.0)
+    log_x = [np.log(firing_stress_asymptotic(np.exp(log_v - k * step), joint)) for k in range(5)]
+    slope = sum(c * lx for c, lx in zip(coefficients, log_x, strict=True)) / (12.0 * step)
+    return np.where(log_x[0] < 0.0, slope, np.where(np.isnan(log_x[0]), np.nan, 0.0))
+
+
+def steady_stress_loglaw(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
+    """Linear log law sigma_bar [1 + alpha ln(V / V*)] [Pa] (001/Eq. 30).
+
+    The linearisation of the exact result near V*; off by 1-7 % at lab velocities for
+    u ~ 25-50 (physics.md section 1).
+
+    Parameters
+    ----------
+    velocity : array_like
+        Slider velocity V > 0 [m/s].
+    joint : MeanFieldJoint
+        Joint parameters.
+
+    Returns
+    -------
+    ndarray
+        sigma_bar [1 + alpha ln(V / V*)] [Pa], shaped like ``velocity``.
+    """
+    return joint.sigma_bar * (1.0 + joint.alpha * np.log(_velocity(velocity) / joint.v_star))

@@ -1,0 +1,1 @@
+"""Scenario files shipped with nanoblock, importable as package data ``nanoblock.scenarios``."""
