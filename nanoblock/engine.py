@@ -30,6 +30,9 @@ from nanoblock.store import SAMPLES, SNAPSHOTS, RunStore, dataset
 from nanoblock.tables import hazard_table
 from nanoblock.theory.meanfield import MeanFieldJoint, sample_q_stationary
 
+TRANSIENT_FORCE_STEP = 0.005
+"""epsilon: in transients one internal step changes the force by at most epsilon alpha F."""
+
 FLUSH_SECONDS = 5.0
 """Wall time between flushes of samples (and checkpoints) to the store."""
 
@@ -56,6 +59,7 @@ def kernel_parameters(scenario: Scenario) -> np.ndarray:
     record["contact_area"] = interface.real_area / interface.n_contacts
     record["stiffness"] = scenario.loading.stiffness
     record["step_slip"] = scenario.step_slip
+    record["force_step"] = TRANSIENT_FORCE_STEP / (2.0 * joint.u)  # epsilon alpha, alpha = 1/2u
     return params
 
 

@@ -122,11 +122,13 @@ class RunStore:
         first.to_zarr(self.path, mode="w", zarr_format=3, consolidated=False, encoding=encoding)
 
     def append(self, samples: xr.Dataset) -> None:
-        """Append samples along ``time``."""
+        """Append samples along ``time`` (xarray rewrites root attrs: keep the stored ones)."""
+        samples = samples.assign_attrs(self.attrs)
         samples.to_zarr(self.path, append_dim="time", consolidated=False)
 
     def append_snapshots(self, snapshots: xr.Dataset) -> None:
         """Append block snapshots along ``snapshot_time`` (creating them the first time)."""
+        snapshots = snapshots.assign_attrs(self.attrs)
         if "snapshot_time" in self._root_arrays():
             snapshots.to_zarr(self.path, append_dim="snapshot_time", consolidated=False)
         else:

@@ -22,6 +22,7 @@ PARAMS = np.dtype(
         ("contact_area", np.float64),  # Sigma_0 of one contact at birth [m^2]
         ("stiffness", np.float64),  # drive spring K [N/m] (inf: rigid drive)
         ("step_slip", np.float64),  # slider slip per internal step [m]
+        ("force_step", np.float64),  # max spring force change per step / F (transients)
     ]
 )
 """Fields of the parameter record, with units."""

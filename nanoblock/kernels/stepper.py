@@ -6,7 +6,10 @@ of the previous step (blocks see an exact linear ramp, events and renewals exact
 at the step's end the balance is restored by an elastic jump
 dX = (K (X_L - X) - F) / (K + k_int) (k_int = dF/dX of the pinned interface), applied at
 the start of the next step, or at once, iterated to convergence, before a stored sample.
-The steps are taken on the slip scale, so the cost follows events, not simulated time.
+The steps are taken on the slip scale, so the cost follows events, not simulated time;
+in transients a step may also change the spring force K |V_L - V| dt by at most
+``force_step`` F (a fraction of alpha F, so the slider velocity changes by a few percent
+per step and the prediction lags little).
 
 ``slider`` is a one-element record array of :data:`nanoblock.kernels.layout.SLIDER`;
 ``protocol`` is ``(3, S + 1)``: segment start times (last column: end of protocol),
@@ -58,8 +61,12 @@ def advance_to(
         _, _, segment_end = load_point(s.time, protocol)
         target = min(t_stop, segment_end)
         dt = target - s.time
+        _, load_velocity, _ = load_point(s.time, protocol)
         if s.velocity != 0.0:
             dt = min(dt, params.step_slip / abs(s.velocity))
+        mismatch = params.stiffness * abs(load_velocity - s.velocity)
+        if mismatch > 0.0 and params.stiffness != np.inf and s.force > 0.0:
+            dt = min(dt, params.force_step * s.force / mismatch)
         if s.last_dt > 0.0:
             dt = min(dt, 2.0 * s.last_dt)
         advance_contacts(

@@ -1,0 +1,57 @@
+"""Shared scenario builders (reference joint of physics.md section 4)."""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+import pytest
+
+from nanoblock.params import Scenario, from_mapping
+
+RHO_MAX = 2.75e-10
+"""rho~_max of the reference joint [m]."""
+
+REFERENCE: dict[str, Any] = {
+    "joint": {
+        "block_size": 2.75e-9,
+        "shear_modulus": 1.0e9,
+        "threshold_stress": 1.0e8,
+        "attempt_frequency": 1.0e12,
+        "temperature": 300.0,
+        "k2": 0.0,
+        "slip": "reset",
+    },
+    "interface": {
+        "normal_force": 1.0,
+        "hardness": 1.0e8,
+        "n_contacts": 40,
+        "blocks_per_contact": 50,
+        "memory_length": float("inf"),
+        "aging_m": 0.0,
+    },
+    "loading": {"stiffness": float("inf"), "steps": [{"velocity": 1e-6, "displacement": 1e-8}]},
+    "run": {"seed": 1, "record_every": 1e-3, "initial_state": "steady"},
+}
+
+
+def merged(base: dict[str, Any], changes: dict[str, Any]) -> dict[str, Any]:
+    """Deep copy of ``base`` with the sections of ``changes`` updated key by key."""
+    out = copy.deepcopy(base)
+    for section, values in changes.items():
+        if isinstance(values, dict) and isinstance(out.get(section), dict):
+            out[section].update(values)
+        else:
+            out[section] = values
+    return out
+
+
+def scenario(**changes: dict[str, Any]) -> Scenario:
+    """The reference mean-field scenario with some keys changed, validated."""
+    return from_mapping(merged(REFERENCE, changes))
+
+
+@pytest.fixture
+def make_scenario():
+    """Factory fixture for :func:`scenario`."""
+    return scenario

@@ -1,0 +1,35 @@
+"""A naive pure-NumPy reference of the mean-field nanoblock model (001/Eqs. 23-27).
+
+Fixed time step, one coin flip per block per step with probability 1 - exp(-dt / tau):
+the textbook way, which the event-driven kernel must agree with statistically.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def simulate_mean_field(
+    x: np.ndarray,
+    velocity: float,
+    rho_max: float,
+    omega_a: float,
+    u: float,
+    duration: float,
+    dt: float,
+    rng: np.random.Generator,
+    sample_every: int,
+) -> tuple[np.ndarray, int]:
+    """Advance reduced stresses ``x`` (in place) and return sampled mean stresses, events."""
+    x_step = velocity / rho_max * dt
+    samples = []
+    events = 0
+    for step in range(int(round(duration / dt))):
+        x += x_step
+        probability = -np.expm1(-omega_a * np.exp(-u * (1.0 - x * x)) * dt)
+        fire = (rng.random(x.size) < probability) | (x >= 1.0)
+        x[fire] = 0.0
+        events += int(fire.sum())
+        if step % sample_every == 0:
+            samples.append(x.mean())
+    return np.array(samples), events

@@ -1,0 +1,203 @@
+"""Issue 2 acceptance: force balance, ageing and renewal, determinism, store and resume."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import nanoblock.engine as engine
+from nanoblock.engine import simulate
+from nanoblock.params import ScenarioError
+from nanoblock.store import SAMPLES, SNAPSHOTS
+from tests.conftest import RHO_MAX, scenario
+from tests.tolerances import FORCE_BALANCE_RTOL, MEAN_AGE_RTOL, Z_MAX
+
+ageing_interface = {"memory_length": 5e-8, "aging_m": 0.05, "aging_time": 1e-3}
+
+
+def soft_protocol(slip: str = "reset", k2: float = 0.0):
+    """Velocity step, hold and reload on a finite spring, with ageing and renewal."""
+    return scenario(
+        joint={"slip": slip, "k2": k2},
+        interface={**ageing_interface, "n_contacts": 30, "blocks_per_contact": 20},
+        loading={
+            "stiffness": 2e5,
+            "steps": [
+                {"velocity": 1e-6, "displacement": 6e-8},
+                {"velocity": 1e-5, "displacement": 1e-7},
+                {"hold": 0.05},
+                {"velocity": 1e-5, "displacement": 5e-8},
+            ],
+        },
+        run={"record_every": 2e-3, "seed": 4},
+    )
+
+
+@pytest.mark.parametrize(("slip", "k2"), [("reset", 0.0), ("chain", 0.0), ("chain", 0.5 * 2.75)])
+def test_force_balance_at_every_sample(slip: str, k2: float) -> None:
+    run = soft_protocol(slip, k2)
+    result = simulate(run)
+    spring = run.loading.stiffness * (result.load_point_displacement - result.slider_displacement)
+    force = result.friction_force
+    assert float(force.min()) > 0
+    np.testing.assert_allclose(spring, force, rtol=FORCE_BALANCE_RTOL)
+    assert int(result.n_events[-1]) > 1000
+    mu = result.friction_coefficient
+    assert np.all(np.isfinite(mu)) and float(mu.max()) < 1.0
+
+
+def test_mean_contact_age_is_d0_over_v_in_steady_sliding() -> None:
+    velocity, memory = 1e-6, 2e-8
+    run = scenario(
+        interface={
+            "n_contacts": 2000,
+            "blocks_per_contact": 2,
+            "memory_length": memory,
+            "aging_m": 0.05,
+        },
+        loading={
+            "stiffness": float("inf"),
+            "steps": [{"velocity": velocity, "displacement": 60 * memory}],
+        },
+        run={"record_every": 2 * memory / velocity, "initial_state": "unloaded"},
+    )
+    result = simulate(run)
+    ages = result.mean_contact_age.values[6:]  # after 10 lifetimes from newborn contacts
+    expected = memory / velocity
+    error = ages.std(ddof=1) / np.sqrt(ages.size)
+    assert ages.mean() == pytest.approx(expected, rel=MEAN_AGE_RTOL)
+    assert abs(ages.mean() - expected) < Z_MAX * error + 0.002 * expected
+
+
+def test_contact_area_grows_by_eq5_during_a_hold() -> None:
+    m, tau, hold = 0.07, 2e-3, 10.0
+    run = scenario(
+        interface={
+            "n_contacts": 10,
+            "blocks_per_contact": 5,
+            "memory_length": 1e-6,
+            "aging_m": m,
+            "aging_time": tau,
+        },
+        loading={"stiffness": 1e5, "steps": [{"hold": hold}]},
+        run={"record_every": 0.25, "initial_state": "unloaded"},
+    )
+    result = simulate(run)
+    base = run.interface.real_area
+    expected = base * (1 + m * np.log1p(result.time.values / tau))  # 001/Eq. 5
+    np.testing.assert_allclose(result.real_contact_area, expected, rtol=1e-12)
+    np.testing.assert_allclose(result.mean_contact_age, result.time, rtol=1e-12)
+
+
+def trajectory_in_subprocess(threads: int, tmp_path) -> xr.Dataset:
+    out = tmp_path / f"threads{threads}.nc"
+    code = (
+        "import sys; sys.path.insert(0, sys.argv[2]);"
+        "from tests.test_engine import soft_protocol; from nanoblock.engine import simulate;"
+        "simulate(soft_protocol('chain', 1.0)).to_netcdf(sys.argv[1])"
+    )
+    env = {**os.environ, "NUMBA_NUM_THREADS": str(threads)}
+    root = os.path.dirname(os.path.dirname(__file__))
+    subprocess.run([sys.executable, "-c", code, str(out), root], check=True, env=env)
+    return xr.open_dataset(out).load()
+
+
+def test_same_seed_same_trajectory_with_one_or_two_threads(tmp_path) -> None:
+    one = trajectory_in_subprocess(1, tmp_path)
+    two = trajectory_in_subprocess(2, tmp_path)
+    for name in SAMPLES:
+        np.testing.assert_array_equal(one[name].values, two[name].values, err_msg=name)
+
+
+def test_different_seeds_differ() -> None:
+    first = simulate(soft_protocol())
+    second = simulate(soft_protocol().with_seed(99))
+    assert not np.array_equal(first.friction_force.values, second.friction_force.values)
+
+
+def test_store_has_contract_variables_units_and_provenance(tmp_path) -> None:
+    run = soft_protocol().model_copy(
+        update={"run": soft_protocol().run.model_copy(update={"snapshot_every": 10})}
+    )
+    stored = simulate(run, tmp_path / "run.zarr")
+    for name, spec in {**SAMPLES, **SNAPSHOTS}.items():
+        assert stored[name].attrs["units"] == spec.units
+        assert stored[name].attrs["long_name"] == spec.long_name
+    assert stored.time.attrs["units"] == "s"
+    assert json.loads(stored.attrs["scenario"])["run"]["seed"] == 4
+    assert stored.attrs["seed"] == 4 and stored.attrs["complete"]
+    assert {"nanoblock_version", "numba_version"} <= set(stored.attrs)
+    assert stored.block_stress.dims == ("snapshot_time", "contact", "block")
+    assert stored.block_stress.shape == (stored.sizes["snapshot_time"], 30, 20)
+    assert stored.block_stress.chunks is not None  # lazily opened, chunked on disk
+    np.testing.assert_allclose(stored.snapshot_time, stored.time[::10])
+    in_memory = simulate(run)
+    for name in SAMPLES:
+        np.testing.assert_array_equal(stored[name].values, in_memory[name].values)
+
+
+def test_killed_run_resumes_to_the_same_trajectory(tmp_path, monkeypatch) -> None:
+    run = soft_protocol()
+    reference = simulate(run)
+    monkeypatch.setattr(engine, "FLUSH_SECONDS", 0.0)  # flush and checkpoint every sample
+    calls = {"n": 0}
+    original = engine.Run.step_to_next_sample
+
+    def crash_after_40(self):
+        calls["n"] += 1
+        if calls["n"] > 40:
+            raise KeyboardInterrupt("simulated kill")
+        return original(self)
+
+    monkeypatch.setattr(engine.Run, "step_to_next_sample", crash_after_40)
+    with pytest.raises(KeyboardInterrupt):
+        simulate(run, tmp_path / "run.zarr")
+    monkeypatch.setattr(engine.Run, "step_to_next_sample", original)
+    partial = xr.open_zarr(tmp_path / "run.zarr", consolidated=False)
+    assert 0 < partial.sizes["time"] <= 40 and not partial.attrs["complete"]
+    resumed = simulate(run, tmp_path / "run.zarr")
+    for name in SAMPLES:
+        np.testing.assert_array_equal(resumed[name].values, reference[name].values)
+
+
+def test_store_of_another_scenario_is_not_overwritten(tmp_path) -> None:
+    simulate(soft_protocol(), tmp_path / "run.zarr")
+    with pytest.raises(ScenarioError, match="another scenario"):
+        simulate(soft_protocol().with_seed(5), tmp_path / "run.zarr")
+
+
+def test_velocity_step_transient_converges_in_step_size() -> None:
+    """Halving the internal step slip leaves a stable velocity-step transient unchanged
+    within its noise. (The step partition changes the order of each contact's random
+    draws, so the two runs are different realizations: compare smoothed curves.)"""
+
+    def run_with(step_slip: float) -> np.ndarray:
+        run = scenario(
+            interface={
+                **ageing_interface,
+                "memory_length": 2e-7,
+                "n_contacts": 200,
+                "blocks_per_contact": 50,
+            },
+            loading={
+                "stiffness": 3e6,
+                "steps": [
+                    {"velocity": 1e-6, "displacement": 4e-8},
+                    {"velocity": 1e-5, "displacement": 3e-7},
+                ],
+            },
+            run={"record_every": 1e-3, "seed": 8, "step_slip": step_slip},
+        )
+        mu = simulate(run).friction_coefficient
+        return mu.rolling(time=5, center=True).mean().values[2:-2]
+
+    coarse, fine = run_with(RHO_MAX / 2), run_with(RHO_MAX / 8)
+    excursion = fine.max() - fine.min()
+    assert excursion > 0.01  # the direct-effect spike and the decay to a new steady state
+    assert np.sqrt(np.mean((coarse - fine) ** 2)) < 0.1 * excursion

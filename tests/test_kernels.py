@@ -1,0 +1,147 @@
+"""Kernels against closed forms and naive references: streams, hazard, depinning, landing."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+from scipy.integrate import quad
+from scipy.special import dawsn
+
+from nanoblock.barriers import barrier_law
+from nanoblock.kernels import hazard
+from nanoblock.kernels.blocks import advance_free_blocks, landing_overshoot, next_depinning
+from nanoblock.kernels.chain import integrate_cluster, reduced_stress
+from nanoblock.kernels.rng import next_uint64, seed_streams, standard_exponential
+from nanoblock.tables import hazard_table
+from tests.tolerances import HAZARD_RTOL, LANDING_RTOL, SIGNIFICANCE
+
+
+def test_xoshiro_reference_vector() -> None:
+    # first outputs of xoshiro256** from state {1, 2, 3, 4} (reference C implementation)
+    state = np.array([1, 2, 3, 4], dtype=np.uint64)
+    assert [int(next_uint64(state)) for _ in range(4)] == [
+        11520,
+        0,
+        1509978240,
+        1215971899390074240,
+    ]
+
+
+def test_streams_are_distinct_and_exponential() -> None:
+    streams = seed_streams(7, 3)
+    assert len({tuple(row) for row in streams}) == 3
+    draws = np.array([standard_exponential(streams[0]) for _ in range(20000)])
+    assert stats.kstest(draws, "expon").pvalue > SIGNIFICANCE
+
+
+@pytest.mark.parametrize("u", [1.0, 50.21, 500.0])
+def test_persson_cumulative_hazard_matches_dawson(u: float) -> None:
+    table = hazard_table("persson", u)
+    for x in np.linspace(1e-6, 1.0, 97):
+        exact = np.exp(-u * (1 - x * x)) * dawsn(np.sqrt(u) * x) / np.sqrt(u)
+        assert hazard.cumulative(x, table) == pytest.approx(exact, rel=HAZARD_RTOL * u)
+
+
+@pytest.mark.parametrize("barrier", ["persson", "spinodal"])
+def test_cumulative_hazard_matches_quadrature_and_inverts(barrier: str) -> None:
+    u = 50.21
+    law = barrier_law(barrier)
+    table = hazard_table(barrier, u)
+    for x in [1e-3, 0.2, 0.5, 0.8, 0.95, 0.999]:
+        exact = quad(lambda s: np.exp(-u * law(s)), 0, x, epsabs=0, epsrel=1e-13, limit=200)[0]
+        value = hazard.cumulative(x, table)
+        assert value == pytest.approx(exact, rel=1e-7)
+        assert hazard.inverse_cumulative(value, table) == pytest.approx(x, rel=1e-12)
+        assert hazard.signed_cumulative(-x, table) == -value
+        assert hazard.rate(x, table) == pytest.approx(np.exp(-u * law(x)), rel=1e-6)
+
+
+def naive_firing_cdf(x0: float, x_rate: float, omega_a: float, u: float, x: np.ndarray):
+    """P(depinned before reduced stress x) on the ramp, by direct quadrature of 001/Eq. 24."""
+    hazards = [
+        omega_a / x_rate * quad(lambda s: np.exp(-u * (1 - s * s)), x0, xi, epsrel=1e-12)[0]
+        for xi in x
+    ]
+    return 1 - np.exp(-np.array(hazards))
+
+
+def test_next_depinning_is_the_exact_time_dependent_poisson_process() -> None:
+    u, omega_a, x_rate, x0 = 50.21, 1e12, 1e-6 / 2.75e-10, 0.3
+    table = hazard_table("persson", u)
+    rng = np.random.default_rng(5)
+    fired = []
+    for threshold in rng.standard_exponential(4000):
+        t, x, left = next_depinning(x0, threshold, x_rate, 1.0, omega_a, table)
+        assert left == 0.0 and t == pytest.approx((x - x0) / x_rate)
+        fired.append(x)
+    fired = np.array(fired)
+    assert fired.max() < 1.0  # thermal escape long before sigma_a at this rate
+    result = stats.kstest(
+        fired, lambda x: naive_firing_cdf(x0, x_rate, omega_a, u, np.atleast_1d(x))
+    )
+    assert result.pvalue > SIGNIFICANCE
+
+
+def test_next_depinning_splits_hazard_across_horizons() -> None:
+    """Integrating in two halves gives the same firing as in one (hazard is carried)."""
+    table = hazard_table("persson", 50.21)
+    x_rate, omega_a = 3636.0, 1e12
+    t_one, x_one, _ = next_depinning(0.1, 2.0, x_rate, 1.0, omega_a, table)
+    t_a, x_a, left = next_depinning(0.1, 2.0, x_rate, 0.5 * t_one, omega_a, table)
+    assert t_a == np.inf and 0 < left < 2.0
+    t_b, x_b, _ = next_depinning(x_a, left, x_rate, 1.0, omega_a, table)
+    assert x_b == pytest.approx(x_one, rel=1e-12)
+    assert 0.5 * t_one + t_b == pytest.approx(t_one, rel=1e-9)
+
+
+def test_deterministic_depinning_at_threshold() -> None:
+    table = hazard_table("persson", 500.0)  # escape negligible: the ramp reaches sigma_a
+    t, x, _ = next_depinning(0.5, 50.0, 1.0, 10.0, 1.0, table)
+    assert x == 1.0 and t == pytest.approx(0.5)
+    t, x, _ = next_depinning(-0.5, 50.0, -2.0, 10.0, 1.0, table)
+    assert x == -1.0 and t == pytest.approx(0.25)
+
+
+def test_free_blocks_reset_and_count_events() -> None:
+    table = hazard_table("persson", 500.0)
+    stream = seed_streams(3, 1)[0]
+    y = np.array([0.0, 0.5, 0.9])
+    h = np.full(3, 1e6)  # thermal escape impossible: only threshold depinnings
+    events = advance_free_blocks(y, h, 0.0, 1.0, 0.35, 0.0, 1.0, table, stream)
+    assert events == 1
+    np.testing.assert_allclose(y, [0.35, 0.85, 0.25], atol=1e-12)
+
+
+def damped_landing(x0: float, omega_sq: float, damping: float) -> float:
+    """Closed form: stress where an isolated block first stops (001/Eq. 21)."""
+    return -landing_overshoot(omega_sq, damping) * x0
+
+
+@pytest.mark.parametrize("damping_ratio", [0.05, 0.3, 0.9])
+def test_cluster_integrator_lands_isolated_block_like_the_closed_form(damping_ratio) -> None:
+    kappa, omega1_sq = 1.0, 1.0
+    omega_0 = np.sqrt(omega1_sq * (1 + 2 * kappa))  # interior block, neighbours fixed
+    damping = 2 * damping_ratio * omega_0
+    z = np.array([0.0, 0.0, 0.3, 0.0, 0.0])  # middle block at x = 0.9, neighbours far below
+    x0 = reduced_stress(z, 2, kappa)
+    on_depin = np.zeros(5, dtype=np.int64)
+    moved = np.zeros(5, dtype=np.int64)
+    events, n_moved = integrate_cluster(z, 0.0, 2, kappa, omega1_sq, damping, on_depin, moved)
+    assert (events, n_moved) == (1, 1)
+    landed = reduced_stress(z, 2, kappa)
+    expected = damped_landing(x0, omega1_sq * (1 + 2 * kappa), damping)
+    assert landed == pytest.approx(expected, rel=LANDING_RTOL, abs=LANDING_RTOL * abs(x0))
+
+
+def test_cluster_avalanche_pushes_a_neighbour_over_threshold() -> None:
+    kappa, omega1_sq, damping = 1.0, 1.0, 0.2
+    z = np.array([0.0, 0.98, 0.9, 0.0])
+    x = [reduced_stress(z, i, kappa) for i in range(4)]
+    on_depin = np.zeros(4, dtype=np.int64)
+    moved = np.zeros(4, dtype=np.int64)
+    events, n_moved = integrate_cluster(z, 0.0, 1, kappa, omega1_sq, damping, on_depin, moved)
+    assert events >= 2 and n_moved >= 2
+    assert max(abs(reduced_stress(z, i, kappa)) for i in range(4)) < 1.0
+    # the chain's total force (sum of plate-spring stretches) only falls in an avalanche
+    assert sum(reduced_stress(z, i, kappa) for i in range(4)) < sum(x)
