@@ -24,7 +24,7 @@ def simulate_mean_field(
     x_step = velocity / rho_max * dt
     samples = []
     events = 0
-    for step in range(int(round(duration / dt))):
+    for step in range(round(duration / dt)):
         x += x_step
         probability = -np.expm1(-omega_a * np.exp(-u * (1.0 - x * x)) * dt)
         fire = (rng.random(x.size) < probability) | (x >= 1.0)

@@ -1,0 +1,162 @@
+"""Benchmark of the core simulator (issue 2): throughput, scaling and memory.
+
+Run: ``python benchmarks/bench_core.py [--quick]``. Prints a Markdown table and writes
+``benchmarks/results_core.json``. Each measurement runs in a fresh subprocess with the
+thread count set by NUMBA_NUM_THREADS (compilation is cached and excluded by a warm-up).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+WORKER = r"""
+import json, sys, tempfile, time, shutil
+sys.path.insert(0, sys.argv[1])
+import numpy as np
+from tests.conftest import scenario, RHO_MAX
+from nanoblock.engine import simulate
+spec = json.loads(sys.argv[2])
+def build(slip_rho):
+    return scenario(
+        joint=spec["joint"],
+        interface={"n_contacts": spec["contacts"], "blocks_per_contact": spec["blocks"]},
+        loading={"stiffness": spec.get("stiffness", float("inf")),
+                 "steps": [{"velocity": spec["velocity"], "displacement": slip_rho * RHO_MAX}]},
+        run={"record_every": spec.get("record_rho", 5) * RHO_MAX / spec["velocity"],
+             "initial_state": "steady", "seed": 1},
+    )
+simulate(build(2))  # warm-up: compile or load the cache
+store = tempfile.mkdtemp() + "/bench.zarr" if spec.get("store") else None
+started = time.perf_counter()
+result = simulate(build(spec["slip_rho"]), store)
+wall = time.perf_counter() - started
+events = int(result.n_events[-1])
+slip = float(result.slider_displacement[-1] - result.slider_displacement[0])
+print(json.dumps({"wall": wall, "events": events, "slip": slip}))
+"""
+
+NAIVE = r"""
+import json, sys, time
+sys.path.insert(0, sys.argv[1])
+import numpy as np
+from tests.naive_meanfield import simulate_mean_field
+n, velocity = 100_000, 1e-6
+rng = np.random.default_rng(1)
+x = rng.uniform(0, 0.85, n)
+started = time.perf_counter()
+_, events = simulate_mean_field(x, velocity, 2.75e-10, 1e12, 50.21, 2.75e-10 / velocity, 1e-7,
+                                rng, 10**9)
+print(json.dumps({"wall": time.perf_counter() - started, "events": events}))
+"""
+
+MEAN_FIELD = {"k2": 0.0, "slip": "reset"}
+CHAIN = {"k2": 2.75, "slip": "chain"}
+
+
+def measure(spec: dict, threads: int, code: str = WORKER) -> dict:
+    env = {**os.environ, "NUMBA_NUM_THREADS": str(threads)}
+    out = subprocess.run(
+        [sys.executable, "-c", code, str(ROOT), json.dumps(spec)],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--quick", action="store_true", help="shorter runs (smoke test)")
+    args = parser.parse_args()
+    scale = 0.2 if args.quick else 1.0
+    rows, results = [], {}
+
+    def record(name: str, value: float, unit: str, target: str) -> None:
+        results[name] = value
+        rows.append(f"| {name} | {value:.3g} {unit} | {target} |")
+
+    big = {
+        "joint": MEAN_FIELD,
+        "contacts": 1000,
+        "blocks": 100,
+        "velocity": 1e-6,
+        "slip_rho": 200 * scale,
+        "store": True,
+    }
+    for threads in (2, 1):
+        r = measure(big, threads)
+        record(
+            f"mean-field, 1e5 blocks, run + zarr store, {threads} thread(s)",
+            r["events"] / r["wall"],
+            "depinnings/s",
+            ">= 1e7" if threads == 2 else ">= 8e6",
+        )
+    chain = {
+        "joint": CHAIN,
+        "contacts": 200,
+        "blocks": 100,
+        "velocity": 1e-6,
+        "slip_rho": 60 * scale,
+    }
+    r = measure(chain, 1)
+    record(
+        "chain (k2 = k1), 2e4 blocks, 1 thread", r["events"] / r["wall"], "depinnings/s", ">= 1e6"
+    )
+    per_um = {}
+    for velocity in (1e-9, 1e-7, 1e-6, 1e-5, 1e-4):
+        spec = {
+            "joint": MEAN_FIELD,
+            "contacts": 100,
+            "blocks": 100,
+            "velocity": velocity,
+            "slip_rho": 200 * scale,
+        }
+        r = measure(spec, 2)
+        per_um[velocity] = r["wall"] / (r["slip"] * 1e6)
+    spread = max(per_um.values()) / min(per_um.values())
+    record("wall time per um of slip, max/min over V = 1e-9..1e-4 m/s", spread, "x", "< 2")
+    small = {
+        "joint": CHAIN,
+        "contacts": 200,
+        "blocks": 100,
+        "velocity": 1e-6,
+        "slip_rho": 60 * scale,
+    }
+    one, two = measure(small, 1), measure(small, 2)
+    ratio = (two["events"] / two["wall"]) / (one["events"] / one["wall"])
+    record("2 threads / 1 thread throughput, 200 contacts (chain)", ratio, "x", ">= 1.6")
+    bytes_per_block = 16 + (8 * 5 + 32) / 100  # y, h per block; per-contact state / 100
+    record("state memory per block (100 blocks per contact)", bytes_per_block, "bytes", "<= 64")
+    naive = measure({}, 1, NAIVE)
+    kernel_1 = results["mean-field, 1e5 blocks, run + zarr store, 1 thread(s)"]
+    record(
+        "speedup of the kernel over the naive NumPy time-stepped reference",
+        kernel_1 / (naive["events"] / naive["wall"]),
+        "x",
+        "(reported)",
+    )
+    machine = (
+        f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+        f"Python {platform.python_version()}"
+    )
+    print(f"Machine: {machine}\n")
+    print("| measurement | value | target |\n|---|---|---|")
+    print("\n".join(rows))
+    results["wall_per_um"] = {str(k): v for k, v in per_um.items()}
+    results["machine"] = machine
+    results["timestamp"] = time.strftime("%Y-%m-%d")
+    (ROOT / "benchmarks" / "results_core.json").write_text(json.dumps(results, indent=2))
+
+
+if __name__ == "__main__":
+    main()
