@@ -24,7 +24,7 @@ from nanoblock.kernels.chain import reduced_stresses
 from nanoblock.kernels.contacts import total_contact_area
 from nanoblock.kernels.layout import PARAMS, SLIDER
 from nanoblock.kernels.rng import seed_streams
-from nanoblock.kernels.stepper import advance_to, settle
+from nanoblock.kernels.stepper import advance_to_sample
 from nanoblock.params import Scenario, ScenarioError, resolve_seed
 from nanoblock.store import SAMPLES, SNAPSHOTS, RunStore, dataset
 from nanoblock.tables import hazard_table
@@ -203,7 +203,7 @@ class Run:
         """Advance to the next sample time, balance the slider, and return the sample."""
         t = self.times[self.next_sample]
         s = self.state
-        advance_to(
+        advance_to_sample(
             t,
             s.slider,
             self._kernel_state(),
@@ -213,15 +213,6 @@ class Run:
             self.params,
             self.table,
             self.protocol,
-        )
-        settle(
-            s.slider,
-            self._kernel_state(),
-            s.streams,
-            s.events,
-            self.scratch,
-            self.params,
-            self.table,
         )
         slider = s.slider[0]
         interval = self.scenario.run.record_every

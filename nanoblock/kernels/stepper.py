@@ -44,6 +44,34 @@ def _balance_jump(position: float, load: float, force: float, k_int: float, para
 
 
 @kernel
+def _advance_interface(
+    slider, state, streams, events, scratch, param_array, table, velocity, duration
+) -> None:
+    """Apply the pending jump, slide ``duration`` at ``velocity``, sum forces into the slider."""
+    y, h, age, slip, lifetime = state
+    force, stiffness = scratch
+    s = slider[0]
+    advance_contacts(
+        y,
+        h,
+        age,
+        slip,
+        lifetime,
+        events,
+        streams,
+        force,
+        stiffness,
+        s.pending,
+        velocity,
+        duration,
+        param_array,
+        table,
+    )
+    s.force = np.sum(force)
+    s.stiffness = np.sum(stiffness)
+
+
+@kernel
 def advance_to(
     t_stop, slider, state, streams, events, scratch, param_array, table, protocol
 ) -> None:
@@ -53,15 +81,12 @@ def advance_to(
     float arrays of length n_contacts for the contacts' forces and stiffnesses;
     ``param_array`` the one-element PARAMS array.
     """
-    y, h, age, slip, lifetime = state
-    force, stiffness = scratch
     params = param_array[0]
     s = slider[0]
     while s.time < t_stop:
-        _, _, segment_end = load_point(s.time, protocol)
+        _, load_velocity, segment_end = load_point(s.time, protocol)
         target = min(t_stop, segment_end)
         dt = target - s.time
-        _, load_velocity, _ = load_point(s.time, protocol)
         if s.velocity != 0.0:
             dt = min(dt, params.step_slip / abs(s.velocity))
         mismatch = params.stiffness * abs(load_velocity - s.velocity)
@@ -69,27 +94,12 @@ def advance_to(
             dt = min(dt, params.force_step * s.force / mismatch)
         if s.last_dt > 0.0:
             dt = min(dt, 2.0 * s.last_dt)
-        advance_contacts(
-            y,
-            h,
-            age,
-            slip,
-            lifetime,
-            events,
-            streams,
-            force,
-            stiffness,
-            s.pending,
-            s.velocity,
-            dt,
-            param_array,
-            table,
+        _advance_interface(
+            slider, state, streams, events, scratch, param_array, table, s.velocity, dt
         )
         start = s.position
         moved = s.position + s.velocity * dt
         s.time = target if dt >= target - s.time else s.time + dt
-        s.force = np.sum(force)
-        s.stiffness = np.sum(stiffness)
         s.load_point, _, _ = load_point(s.time, protocol)
         s.pending = _balance_jump(moved, s.load_point, s.force, s.stiffness, params)
         s.position = moved + s.pending
@@ -107,31 +117,21 @@ def settle(
     Afterwards the blocks sit at ``slider.position`` and ``slider.force`` equals the
     spring force to a relative 1e-13. Returns the number of rounds needed.
     """
-    y, h, age, slip, lifetime = state
-    force, stiffness = scratch
     params = param_array[0]
     s = slider[0]
     for rounds in range(1, max_rounds + 1):
-        advance_contacts(
-            y,
-            h,
-            age,
-            slip,
-            lifetime,
-            events,
-            streams,
-            force,
-            stiffness,
-            s.pending,
-            0.0,
-            0.0,
-            param_array,
-            table,
-        )
-        s.force = np.sum(force)
-        s.stiffness = np.sum(stiffness)
+        _advance_interface(slider, state, streams, events, scratch, param_array, table, 0.0, 0.0)
         s.pending = _balance_jump(s.position, s.load_point, s.force, s.stiffness, params)
         s.position += s.pending
         if abs(s.pending) * s.stiffness <= _BALANCE * max(abs(s.force), 1e-300):
             return rounds
     return max_rounds
+
+
+@kernel
+def advance_to_sample(
+    t_sample, slider, state, streams, events, scratch, param_array, table, protocol
+) -> int:
+    """:func:`advance_to` ``t_sample``, then :func:`settle`: a balanced stored sample."""
+    advance_to(t_sample, slider, state, streams, events, scratch, param_array, table, protocol)
+    return settle(slider, state, streams, events, scratch, param_array, table)
