@@ -193,6 +193,7 @@ class Run:
         self.state = initial_state(scenario, self.params)
         self.scratch = np.zeros((2, scenario.interface.n_contacts))
         self.next_sample = 0
+        self.snapshots_taken = 0
         self.last_position = float(self.state.slider[0]["position"])
 
     def _kernel_state(self) -> tuple[np.ndarray, ...]:
@@ -217,8 +218,9 @@ class Run:
         slider = s.slider[0]
         interval = self.scenario.run.record_every
         position = float(slider["position"])
-        velocity = (position - self.last_position) / interval if self.next_sample else 0.0
-        if self.next_sample == 0:
+        if self.next_sample:
+            velocity = (position - self.last_position) / interval
+        else:
             velocity = float(slider["velocity"])
         self.last_position = position
         self.next_sample += 1
@@ -239,6 +241,7 @@ class Run:
         """Block-level state now: stresses [Pa], positions [m], pinned flags, ages [s]."""
         s = self.state
         record = self.params[0]
+        self.snapshots_taken += 1
         stress = reduced_stresses(s.y, float(record["kappa"])) * float(record["sigma_a"])
         position = float(s.slider[0]["position"]) - s.y * float(record["rho_max"])
         return {
@@ -260,6 +263,7 @@ class Run:
             "samples": self.next_sample,
             "last_position": self.last_position,
             "simulated_time": float(self.times[self.next_sample - 1]),
+            "snapshots": self.snapshots_taken,
         }
         return self.state.arrays(), progress
 
@@ -268,6 +272,7 @@ class Run:
         self.state = InterfaceState.from_arrays(dict(arrays))
         self.next_sample = int(progress["samples"])
         self.last_position = float(progress["last_position"])
+        self.snapshots_taken = int(progress.get("snapshots", 0))
 
 
 def provenance(scenario: Scenario) -> dict[str, Any]:
@@ -373,7 +378,6 @@ def _flush(run: Run, writer: RunStore, samples, snaps, fresh: bool) -> None:
     if snaps:
         writer.append_snapshots(_snapshot_dataset(snaps))
     arrays, progress = run.checkpoint()
-    progress["snapshots"] = int(writer.open().sizes.get("snapshot_time", 0))
     writer.write_checkpoint(arrays, progress)
 
 

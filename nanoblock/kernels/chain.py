@@ -127,9 +127,7 @@ def reset_cascade(z, offset, first, kappa, on_depin, moved, queue, queued) -> tu
         head = (head + 1) % n
         queued[i] = False
         x = reduced_stress(z, i, kappa) + offset
-        if i != first and abs(x) < 1.0:
-            continue
-        if i == first and on_depin[i] > 0 and abs(x) < 1.0:
+        if abs(x) < 1.0 and (i != first or on_depin[i] > 0):
             continue
         z[i] += isolated_landing(x, _neighbours(i, n), 0.0, kappa)
         n_moved = _record_depinning(i, on_depin, moved, n_moved)
