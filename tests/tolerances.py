@@ -20,3 +20,9 @@ HAZARD_RTOL = 1e-9
 
 Z_MAX = 4.0
 """Monte Carlo agreement: |estimate - expected| < Z_MAX standard errors (two-sided p ~ 6e-5)."""
+
+EXACT_SOLUTION_RTOL = 1e-8
+"""Issue 3: aging and slip laws at constant velocity vs their exact solutions."""
+
+NAIVE_RSF_ATOL = 1e-7
+"""Spring-slider (log coordinates, LSODA per segment) vs the naive odeint in (mu, theta)."""

@@ -1,0 +1,374 @@
+"""Rate-and-state friction laws as a registry (physics.md section 3).
+
+Every law writes the friction coefficient as a function of a *velocity coordinate* w and
+a state vector s, chosen so that the ODE drivers never take the log of a vanishing
+quantity and mu depends linearly on w:
+
+* ``aging``, ``slip`` and ``tabor`` use w = ln(v / v0) and s = ln(theta) (theta > 0);
+* ``silicon`` and ``two_state`` (000's laws, zero static threshold) use
+  w = ln(1 + v / v*) and s = theta (theta >= 0, and v > -v* allows tiny back-creep).
+
+The hot-path methods (``velocity``, ``friction``, ``gradient``, ``state_rate``) take plain
+floats and a parameter tuple in the order of ``Law.names`` so that the ODE right-hand
+sides stay cheap; ``steady_state`` and ``steady_friction`` are vectorised. Velocities are
+in m/s, lengths in m, times in s; friction and state parts are dimensionless.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+FloatArray = NDArray[np.float64]
+
+__all__ = ["LAWS", "Law", "Parameter", "law"]
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One law parameter: SI unit, meaning, open lower bound and fitting scale."""
+
+    name: str
+    unit: str
+    meaning: str
+    positive: bool = True
+    log_scale: bool = False
+    """Fit in ln(value): lengths, velocities and rates that span decades."""
+
+
+@dataclass(frozen=True)
+class Law:
+    """Base class: a registered RSF law (see the module docstring for w and s)."""
+
+    name: str
+    summary: str
+    parameters: tuple[Parameter, ...]
+    state_names: tuple[str, ...]
+    default_free: tuple[str, ...]
+    defaults: Mapping[str, float] = field(default_factory=dict)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters)
+
+    def pack(self, params: Mapping[str, float]) -> tuple[float, ...]:
+        """Parameter tuple in the order of ``names``; defaults fill what is missing.
+
+        Raises ``ValueError`` naming the parameter that is missing, non-finite or out of
+        range (positive parameters must be > 0).
+        """
+        unknown = set(params) - set(self.names)
+        if unknown:
+            raise ValueError(
+                f"law {self.name!r} has no parameter(s) {sorted(unknown)}; "
+                f"it takes {list(self.names)}"
+            )
+        values = []
+        for spec in self.parameters:
+            value = params.get(spec.name, self.defaults.get(spec.name))
+            if value is None:
+                raise ValueError(f"law {self.name!r}: parameter {spec.name!r} is required")
+            value = float(value)
+            if not math.isfinite(value) or (spec.positive and value <= 0.0):
+                allowed = "(0, inf)" if spec.positive else "(-inf, inf)"
+                raise ValueError(
+                    f"law {self.name!r}: parameter {spec.name!r} = {value!r} is out of "
+                    f"its allowed range {allowed} [{spec.unit}]"
+                )
+            values.append(value)
+        return tuple(values)
+
+    @property
+    def allows_rest(self) -> bool:
+        """Whether v = 0 is a finite point of the law (False for mu ~ ln v laws)."""
+        return True
+
+    # --- hot path (floats) -------------------------------------------------------
+    def velocity(self, w: float, p: Sequence[float]) -> float:
+        """Slip velocity v(w) [m/s]."""
+        raise NotImplementedError
+
+    def velocity_slope(self, w: float, p: Sequence[float]) -> float:
+        """dv/dw [m/s]."""
+        raise NotImplementedError
+
+    def coordinate(self, v: float, p: Sequence[float]) -> float:
+        """Inverse of ``velocity``."""
+        raise NotImplementedError
+
+    def friction(self, w: float, s: Sequence[float], p: Sequence[float]) -> float:
+        """Friction coefficient mu(w, s)."""
+        raise NotImplementedError
+
+    def gradient(
+        self, w: float, s: Sequence[float], p: Sequence[float]
+    ) -> tuple[float, tuple[float, ...]]:
+        """(d mu / d w, d mu / d s_i)."""
+        raise NotImplementedError
+
+    def state_rate(self, v: float, s: Sequence[float], p: Sequence[float]) -> tuple[float, ...]:
+        """ds/dt [1/s] at slip velocity v."""
+        raise NotImplementedError
+
+    # --- vectorised ----------------------------------------------------------------
+    def velocities(self, w: ArrayLike, p: Sequence[float]) -> FloatArray:
+        """Vectorised ``velocity`` [m/s]."""
+        raise NotImplementedError
+
+    def steady_state(self, v: ArrayLike, p: Sequence[float]) -> tuple[FloatArray, ...]:
+        """The state coordinates of steady sliding at velocity v > 0."""
+        raise NotImplementedError
+
+    def steady_friction(self, v: ArrayLike, params: Mapping[str, float]) -> FloatArray:
+        """Steady-state friction coefficient mu_ss(v) at v > 0 [m/s]."""
+        p = self.pack(params)
+        v = np.asarray(v, dtype=float)
+        state = self.steady_state(v, p)
+        w = np.vectorize(lambda x: self.coordinate(x, p), otypes=[float])(v)
+        return np.vectorize(lambda wi, *si: self.friction(wi, si, p), otypes=[float])(w, *state)
+
+    def reference_friction(self, params: Mapping[str, float], velocity: float) -> float:
+        """mu0 of the contract: steady friction at the reference velocity [m/s]."""
+        return float(self.steady_friction(velocity, params))
+
+    def contract(self, params: Mapping[str, float], velocity: float) -> dict[str, float | None]:
+        """The contract keys mu0, a, b, dc (a and b per unit ln v; dc in m)."""
+        return {
+            "mu0": self.reference_friction(params, velocity),
+            "a": params["a"],
+            "b": params["b"],
+            "dc": params["dc"],
+        }
+
+
+_MU0 = Parameter("mu0", "1", "steady friction at v0", positive=False)
+_A = Parameter("a", "1", "direct-effect coefficient A", positive=False)
+_B = Parameter("b", "1", "evolution-effect coefficient B", positive=False)
+_DC = Parameter("dc", "m", "memory (critical slip) length D_c", log_scale=True)
+_V0 = Parameter("v0", "m/s", "reference velocity (held fixed)", log_scale=True)
+
+
+@dataclass(frozen=True)
+class _LogVelocityLaw(Law):
+    """w = ln(v / v0), s = (ln theta,): Dieterich-Ruina laws (001/Eq. 2)."""
+
+    @property
+    def allows_rest(self) -> bool:
+        return False
+
+    def velocity(self, w, p):
+        return p[-1] * math.exp(w)
+
+    def velocity_slope(self, w, p):
+        return p[-1] * math.exp(w)
+
+    def coordinate(self, v, p):
+        return math.log(v / p[-1])
+
+    def velocities(self, w, p):
+        return p[-1] * np.exp(w)
+
+    def friction(self, w, s, p):
+        mu0, a, b, dc, v0 = p
+        return mu0 + a * w + b * (s[0] + math.log(v0 / dc))
+
+    def gradient(self, w, s, p):
+        return p[1], (p[2],)
+
+    def steady_state(self, v, p):
+        return (np.log(p[3] / np.asarray(v, dtype=float)),)
+
+
+@dataclass(frozen=True)
+class AgingLaw(_LogVelocityLaw):
+    """Dieterich aging law: theta' = 1 - v theta / Dc (001/Eq. 3, 000/Eq. 2)."""
+
+    def state_rate(self, v, s, p):
+        return (math.exp(-s[0]) - v / p[3],)
+
+
+@dataclass(frozen=True)
+class SlipLaw(_LogVelocityLaw):
+    """Ruina slip law: theta' = -(v theta / Dc) ln(v theta / Dc) (000/Eq. 3)."""
+
+    def state_rate(self, v, s, p):
+        return (-(v / p[3]) * (math.log(v / p[3]) + s[0]),)
+
+
+@dataclass(frozen=True)
+class TaborLaw(_LogVelocityLaw):
+    """Generalised Tabor product form (001/Eq. 14), aging-law state phi.
+
+    mu = mu0 [1 + m ln(phi v0 / D0)] [1 + alpha ln(v / v0)]; parameters
+    (mu0, alpha, m, d0, v0), so that A = alpha mu0 and B = m mu0 (001/Eq. 16).
+    """
+
+    def friction(self, w, s, p):
+        mu0, alpha, m, d0, v0 = p
+        return mu0 * (1.0 + m * (s[0] + math.log(v0 / d0))) * (1.0 + alpha * w)
+
+    def gradient(self, w, s, p):
+        mu0, alpha, m, d0, v0 = p
+        area = 1.0 + m * (s[0] + math.log(v0 / d0))
+        strength = 1.0 + alpha * w
+        return mu0 * area * alpha, (mu0 * m * strength,)
+
+    def state_rate(self, v, s, p):
+        return (math.exp(-s[0]) - v / p[3],)
+
+    def contract(self, params, velocity):
+        return {
+            "mu0": self.reference_friction(params, velocity),
+            "a": params["alpha"] * params["mu0"],
+            "b": params["m"] * params["mu0"],
+            "dc": params["d0"],
+        }
+
+
+@dataclass(frozen=True)
+class SiliconLaw(Law):
+    """000's silicon-on-steel law (000/Eqs. 1, 7, 14c-d): zero static threshold.
+
+    mu = A ln(1 + v/v*) + B ln(1 + theta/theta*),
+    theta' = (|v| / Dc) (1 / (1 + |v|/v_theta) - theta);
+    static coefficient mu_s = B ln(1 + 1/theta*) (000/Eq. 8). Slip in either direction
+    renews contacts, hence |v|. Parameters (a, b, dc, theta_star, v_theta, v_star).
+    """
+
+    def velocity(self, w, p):
+        return p[-1] * math.expm1(w)
+
+    def velocity_slope(self, w, p):
+        return p[-1] * math.exp(w)
+
+    def coordinate(self, v, p):
+        return math.log1p(v / p[-1])
+
+    def velocities(self, w, p):
+        return p[-1] * np.expm1(w)
+
+    def friction(self, w, s, p):
+        return p[0] * w + p[1] * math.log1p(s[0] / p[3])
+
+    def gradient(self, w, s, p):
+        return p[0], (p[1] / (p[3] + s[0]),)
+
+    def state_rate(self, v, s, p):
+        speed = abs(v)
+        return (speed / p[2] * (1.0 / (1.0 + speed / p[4]) - s[0]),)
+
+    def steady_state(self, v, p):
+        return (1.0 / (1.0 + np.abs(np.asarray(v, dtype=float)) / p[4]),)
+
+    def static_friction(self, params: Mapping[str, float]) -> float:
+        """mu_s = B ln(1 + 1/theta*) (000/Eq. 8)."""
+        return params["b"] * math.log1p(1.0 / params["theta_star"])
+
+    def contract(self, params, velocity):
+        return {
+            "mu0": self.reference_friction(params, velocity),
+            "a": params["a"],
+            "b": params["b"],
+            "dc": params["dc"],
+        }
+
+
+@dataclass(frozen=True)
+class TwoStateLaw(SiliconLaw):
+    """000's two-state law (000/Eqs. 4-5) with the friction of 000/Eq. 1.
+
+    theta' = (|v|/Dc) ((1 + phi)/(1 + |v|/v_theta) - theta),  phi' = h - |v| phi / Dc,
+    with h = alpha N / tau the aging rate [1/s]; state (theta, phi). Parameters
+    (a, b, dc, theta_star, v_theta, aging_rate, v_star).
+    """
+
+    def gradient(self, w, s, p):
+        return p[0], (p[1] / (p[3] + s[0]), 0.0)
+
+    def state_rate(self, v, s, p):
+        speed = abs(v)
+        theta, phi = s
+        return (
+            speed / p[2] * ((1.0 + phi) / (1.0 + speed / p[4]) - theta),
+            p[5] - speed * phi / p[2],
+        )
+
+    def steady_state(self, v, p):
+        speed = np.abs(np.asarray(v, dtype=float))
+        phi = p[5] * p[2] / speed
+        return ((1.0 + phi) / (1.0 + speed / p[4]), phi)
+
+
+_SILICON_PARAMETERS = (
+    Parameter("a", "1", "direct-effect coefficient A", positive=False),
+    Parameter("b", "1", "state coefficient B"),
+    _DC,
+    Parameter("theta_star", "1", "state scale theta*", log_scale=True),
+    Parameter("v_theta", "m/s", "state cutoff velocity v_theta", log_scale=True),
+)
+_V_STAR = Parameter("v_star", "m/s", "velocity scale v* (held fixed)", log_scale=True)
+
+LAWS: dict[str, Law] = {
+    entry.name: entry
+    for entry in (
+        AgingLaw(
+            "aging",
+            "Dieterich aging law (001/Eqs. 2-3)",
+            (_MU0, _A, _B, _DC, _V0),
+            ("ln_theta",),
+            ("mu0", "a", "b", "dc"),
+        ),
+        SlipLaw(
+            "slip",
+            "Ruina slip law (001/Eq. 2, 000/Eq. 3)",
+            (_MU0, _A, _B, _DC, _V0),
+            ("ln_theta",),
+            ("mu0", "a", "b", "dc"),
+        ),
+        TaborLaw(
+            "tabor",
+            "generalised Tabor product form (001/Eq. 14)",
+            (
+                _MU0,
+                Parameter("alpha", "1", "relative direct effect alpha", positive=False),
+                Parameter("m", "1", "relative area creep m", positive=False),
+                Parameter("d0", "m", "memory length D0", log_scale=True),
+                _V0,
+            ),
+            ("ln_phi",),
+            ("mu0", "alpha", "m", "d0"),
+        ),
+        SiliconLaw(
+            "silicon",
+            "silicon-on-steel law, no aging (000/Eqs. 1, 7)",
+            (*_SILICON_PARAMETERS, _V_STAR),
+            ("theta",),
+            ("a", "b", "dc", "theta_star", "v_theta"),
+            defaults={"v_star": 1e-12},
+        ),
+        TwoStateLaw(
+            "two_state",
+            "two-state aging law (000/Eqs. 1, 4-5)",
+            (
+                *_SILICON_PARAMETERS,
+                Parameter("aging_rate", "1/s", "aging rate h = alpha N / tau", log_scale=True),
+                _V_STAR,
+            ),
+            ("theta", "phi"),
+            ("a", "b", "dc", "theta_star", "v_theta", "aging_rate"),
+            defaults={"v_star": 1e-12},
+        ),
+    )
+}
+
+
+def law(name: str) -> Law:
+    """The registered law called ``name``; ``ValueError`` lists the known ones."""
+    try:
+        return LAWS[name]
+    except KeyError:
+        raise ValueError(f"unknown law {name!r}; known laws: {sorted(LAWS)}") from None

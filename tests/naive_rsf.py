@@ -1,0 +1,64 @@
+"""Naive reference spring-slider for the aging and slip laws, written the usual way.
+
+As common RSF tools do it: state (mu, theta) in natural variables, the load-point
+velocity looked up inside the right-hand side, v recovered from the friction law, and
+(``solver="odeint"``) one ``scipy.integrate.odeint`` call over the whole output array.
+That usual way fails on the reload after a long hold (LSODA's error test breaks down as
+v jumps by decades in natural variables); ``solver="radau"`` (implicit Radau IIA,
+``solve_ivp``, one call per segment, the default) survives it and is the test reference.
+Neither shares code with :mod:`nanoblock.rsf`, so agreement tests both.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.integrate import odeint, solve_ivp
+
+
+def naive_slider(
+    law: str,
+    params: dict[str, float],
+    segments: list[tuple[float, float]],
+    times: np.ndarray,
+    stiffness: float,
+    *,
+    solver: str = "radau",
+    rtol: float = 1e-11,
+    atol: float = 1e-13,
+) -> np.ndarray:
+    """Friction at ``times`` (starting at 0) for (velocity, duration) load-point segments,
+    starting in steady state at the first velocity. ``stiffness`` is K/W [1/m]."""
+    mu0, a, b, dc, v0 = (params[k] for k in ("mu0", "a", "b", "dc", "v0"))
+    ends = np.cumsum([d for _, d in segments])
+    velocities = [v for v, _ in segments]
+
+    def load_velocity(t: float) -> float:
+        i = int(np.searchsorted(ends, t, side="left"))
+        return velocities[min(i, len(velocities) - 1)]
+
+    def rhs(t: float, y: np.ndarray) -> list[float]:
+        mu, theta = y
+        v = v0 * math.exp((mu - mu0 - b * math.log(v0 * theta / dc)) / a)
+        if law == "aging":
+            dtheta = 1.0 - v * theta / dc
+        else:
+            dtheta = -v * theta / dc * math.log(v * theta / dc)
+        return [stiffness * (load_velocity(t) - v), dtheta]
+
+    v_start = velocities[0]
+    y0 = [mu0 + (a - b) * math.log(v_start / v0), dc / v_start]
+    if solver == "odeint":
+        return odeint(rhs, y0, times, rtol=rtol, atol=atol, tfirst=True, mxstep=10**6)[:, 0]
+    mu = np.empty(times.size)
+    t0, y = 0.0, np.array(y0)
+    for end in [*ends[:-1], np.nextafter(max(times[-1], ends[-1]), np.inf)]:
+        inside = (times >= t0) & (times < end)
+        solution = solve_ivp(
+            rhs, (t0, end), y, method="Radau", rtol=rtol, atol=atol,
+            t_eval=np.concatenate([times[inside], [end]]),
+        )  # fmt: skip
+        mu[inside] = solution.y[0, :-1]
+        t0, y = end, solution.y[:, -1]
+    return mu

@@ -1,0 +1,185 @@
+"""RSF law registry and spring-slider driver: exact solutions, steady states, a naive
+reference, sampling independence and input errors."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from nanoblock.rsf.laws import LAWS, law
+from nanoblock.rsf.slider import LoadPointHistory, solve_slider
+from tests.naive_rsf import naive_slider
+from tests.tolerances import EXACT_SOLUTION_RTOL, NAIVE_RSF_ATOL
+
+STANDARD = {"mu0": 0.6, "a": 0.01, "b": 0.015, "dc": 1e-5, "v0": 1e-6}
+EXAMPLES = {
+    "aging": STANDARD,
+    "slip": STANDARD,
+    "tabor": {"mu0": 0.6, "alpha": 0.02, "m": 0.03, "d0": 1e-5, "v0": 1e-6},
+    "silicon": {"a": 7.5e-4, "b": 0.1, "dc": 1.33e-6, "theta_star": 1.15, "v_theta": 3e-8},
+    "two_state": {
+        "a": 7.5e-4,
+        "b": 0.1,
+        "dc": 1.33e-6,
+        "theta_star": 1.15,
+        "v_theta": 3e-8,
+        "aging_rate": 1e-3,
+    },
+}
+
+
+def test_every_registered_law_has_an_example() -> None:
+    assert set(EXAMPLES) == set(LAWS)
+
+
+@pytest.mark.parametrize("name", sorted(LAWS))
+def test_steady_state_is_reached_by_the_ode(name: str) -> None:
+    """Velocity control from a perturbed state relaxes to ``steady_state`` (20 Dc of slip)."""
+    lw, params = law(name), EXAMPLES[name]
+    p = lw.pack(params)
+    v = 2e-6
+    steady = [float(s) for s in lw.steady_state(v, p)]
+    perturbed = [s + 0.3 * max(abs(s), 0.1) for s in steady]
+    dc = params.get("dc", params.get("d0"))
+    duration = 40.0 * dc / v
+    history = LoadPointHistory.from_segments([(v, duration)])
+    solution = solve_slider(lw, params, history, [0.0, duration], math.inf, initial_state=perturbed)
+    np.testing.assert_allclose(solution.state[:, -1], steady, rtol=1e-8, atol=1e-10)
+    mu_ss = float(lw.steady_friction(v, params))
+    assert solution.friction[-1] == pytest.approx(mu_ss, rel=1e-8)
+
+
+@pytest.mark.parametrize("name", ["aging", "slip"])
+def test_constant_velocity_state_matches_exact_solution(name: str) -> None:
+    """Aging: theta = Dc/v + (theta0 - Dc/v) e^(-vt/Dc); slip: ln(v theta/Dc) decays as
+    e^(-vt/Dc) (000/Eqs. 2-3 at constant v)."""
+    lw, params = law(name), STANDARD
+    v, dc, theta0 = 3e-6, STANDARD["dc"], 50.0
+    times = np.linspace(0.0, 5 * dc / v, 201)
+    history = LoadPointHistory.from_segments([(v, times[-1])])
+    solution = solve_slider(lw, params, history, times, math.inf, initial_state=[math.log(theta0)])
+    theta = np.exp(solution.state[0])
+    decay = np.exp(-v * times / dc)
+    if name == "aging":
+        exact = dc / v + (theta0 - dc / v) * decay
+    else:
+        exact = dc / v * np.exp(math.log(v * theta0 / dc) * decay)
+    np.testing.assert_allclose(theta, exact, rtol=EXACT_SOLUTION_RTOL)
+
+
+def test_steady_friction_closed_forms() -> None:
+    """mu_ss of each law against its closed form at three velocities."""
+    v = np.array([1e-8, 1e-6, 1e-4])
+    s = STANDARD
+    np.testing.assert_allclose(
+        law("aging").steady_friction(v, s), s["mu0"] + (s["a"] - s["b"]) * np.log(v / s["v0"])
+    )
+    t = EXAMPLES["tabor"]
+    ln = np.log(v / t["v0"])
+    np.testing.assert_allclose(
+        law("tabor").steady_friction(v, t),
+        t["mu0"] * (1 - t["m"] * ln) * (1 + t["alpha"] * ln),
+    )
+    si = EXAMPLES["silicon"]
+    theta = 1 / (1 + v / si["v_theta"])
+    np.testing.assert_allclose(
+        law("silicon").steady_friction(v, si),
+        si["a"] * np.log1p(v / 1e-12) + si["b"] * np.log1p(theta / si["theta_star"]),
+    )
+
+
+@pytest.mark.parametrize("name", ["aging", "slip"])
+@pytest.mark.parametrize(
+    "segments",
+    [[(1e-6, 20.0), (1e-5, 30.0)], [(1e-5, 5.0), (0.0, 100.0), (1e-5, 20.0)]],
+    ids=["velocity_step", "slide_hold_slide"],
+)
+def test_spring_slider_matches_naive_reference(name: str, segments: list) -> None:
+    """Log-coordinate LSODA per segment vs odeint in (mu, theta) over the whole record."""
+    times = np.linspace(0.0, sum(d for _, d in segments), 3001)
+    k = 2e3
+    history = LoadPointHistory.from_segments(segments)
+    ours = solve_slider(law(name), STANDARD, history, times, k).friction
+    reference = naive_slider(name, STANDARD, segments, times, k)
+    np.testing.assert_allclose(ours, reference, rtol=0, atol=NAIVE_RSF_ATOL)
+
+
+def test_output_does_not_depend_on_sampling_rate() -> None:
+    """10 Hz and 1 kHz output agree at common times (the coarse-output failure of
+    integrators that step from sample to sample)."""
+    history = LoadPointHistory.from_segments([(1e-6, 20.0), (1e-5, 30.0)])
+    coarse = np.linspace(0.0, 50.0, 501)
+    fine = np.linspace(0.0, 50.0, 50001)
+    a = solve_slider(law("aging"), STANDARD, history, coarse, 2e3).friction
+    b = solve_slider(law("aging"), STANDARD, history, fine, 2e3).friction[::100]
+    np.testing.assert_allclose(a, b, rtol=0, atol=1e-9)
+
+
+def test_quasi_static_friction_equals_law_friction() -> None:
+    """The elastic stress returned by the driver equals mu(w, s) of the law."""
+    lw = law("slip")
+    history = LoadPointHistory.from_segments([(1e-5, 5.0), (0.0, 100.0), (1e-5, 20.0)])
+    times = np.linspace(0.0, 125.0, 500)
+    solution = solve_slider(lw, STANDARD, history, times, 2e3)
+    p = lw.pack(STANDARD)
+    direct = [
+        lw.friction(lw.coordinate(v, p), s, p)
+        for v, s in zip(solution.velocity, solution.state.T, strict=True)
+    ]
+    np.testing.assert_allclose(solution.friction, direct, rtol=0, atol=1e-8)
+
+
+def test_inertial_slider_tends_to_quasi_static_as_mass_vanishes() -> None:
+    """The inertial correction shrinks in proportion to the mass M/W."""
+    history = LoadPointHistory.from_segments([(1e-6, 20.0), (1e-5, 30.0)])
+    times = np.linspace(0.0, 50.0, 501)
+    reference = solve_slider(law("aging"), STANDARD, history, times, 2e3).friction
+    errors = [
+        np.max(np.abs(solve_slider(law("aging"), STANDARD, history, times, 2e3, mass=m).friction
+                      - reference))
+        for m in (1e-2, 1e-3)
+    ]  # fmt: skip
+    assert errors[1] < errors[0] / 5
+    assert errors[1] < 1e-4
+
+
+def test_dataset_output_has_units() -> None:
+    history = LoadPointHistory.from_segments([(1e-6, 1.0)])
+    dataset = solve_slider(law("aging"), STANDARD, history, [0.0, 1.0], 1e3).to_dataset()
+    for variable in dataset.variables.values():
+        assert variable.attrs["units"] and variable.attrs["long_name"]
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        (lambda: law("dieterich"), "unknown law 'dieterich'"),
+        (lambda: law("aging").pack({**STANDARD, "dc": -1.0}), "'dc' = -1.0 is out of"),
+        (lambda: law("aging").pack({"mu0": 0.6}), "'a' is required"),
+        (lambda: law("aging").pack({**STANDARD, "q": 1.0}), "no parameter(s) ['q']"),
+        (
+            lambda: solve_slider(
+                law("aging"), STANDARD, LoadPointHistory.from_segments([(1e-6, 1.0)]), [0, 1], -1
+            ),
+            "stiffness K/W = -1",
+        ),
+        (
+            lambda: solve_slider(
+                law("aging"),
+                STANDARD,
+                LoadPointHistory.from_segments([(1e-6, 1.0), (0.0, 1.0)]),
+                [0, 2],
+                math.inf,
+            ),
+            "needs V_L > 0",
+        ),
+        (lambda: LoadPointHistory.from_segments([(1e-6, 0.0)]), "duration must be > 0"),
+        (lambda: LoadPointHistory([0.0, 1.0], [1e-6, -1e-6]), "velocities must be >= 0"),
+    ],
+)
+def test_bad_input_is_refused_with_a_clear_message(call, message: str) -> None:
+    with pytest.raises(ValueError, match=None) as error:
+        call()
+    assert message in str(error.value)
