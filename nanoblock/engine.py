@@ -34,7 +34,8 @@ TRANSIENT_FORCE_STEP = 0.005
 """epsilon: in transients one internal step changes the force by at most epsilon alpha F."""
 
 FLUSH_SECONDS = 5.0
-"""Wall time between flushes of samples (and checkpoints) to the store."""
+"""Default wall time [s] between flushes of samples, checkpoint and progress attrs to the
+store (per run: ``simulate(..., flush_seconds=)``, ``nanoblock run --flush-seconds``)."""
 
 
 def kernel_parameters(scenario: Scenario) -> np.ndarray:
@@ -257,15 +258,33 @@ class Run:
         """Whether every sample has been computed."""
         return self.next_sample >= self.times.size
 
+    @property
+    def simulated_time(self) -> float:
+        """Simulated time of the last computed sample [s] (0 before the first)."""
+        return float(self.times[self.next_sample - 1]) if self.next_sample else 0.0
+
     def checkpoint(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Arrays and progress needed to resume exactly from the current sample."""
         progress = {
             "samples": self.next_sample,
             "last_position": self.last_position,
-            "simulated_time": float(self.times[self.next_sample - 1]),
+            "simulated_time": self.simulated_time,
             "snapshots": self.snapshots_taken,
         }
         return self.state.arrays(), progress
+
+    def progress(self, wall_seconds: float) -> dict[str, Any]:
+        """Machine-readable progress: simulated and end time [s], fraction done, samples,
+        cumulative depinnings, and the wall time spent on the run so far [s]."""
+        end = float(self.scenario.total_time)
+        return {
+            "simulated_time": self.simulated_time,
+            "end_time": end,
+            "fraction": self.simulated_time / end,
+            "samples": self.next_sample,
+            "events": int(self.state.events.sum()),
+            "wall_seconds": float(wall_seconds),
+        }
 
     def restore(self, arrays: dict[str, np.ndarray], progress: dict[str, Any]) -> None:
         """Continue from a checkpoint written by :meth:`checkpoint`."""
@@ -306,20 +325,26 @@ def simulate(
     *,
     seed: int | None = None,
     progress: bool = False,
+    flush_seconds: float | None = None,
 ) -> xr.Dataset:
     """Run ``scenario`` and return its samples as an ``xarray.Dataset``.
 
-    With ``store``, samples stream into a zarr v3 store as the run goes (flushed every
-    few seconds with a checkpoint); if the store holds an unfinished run of the same
-    scenario, the run resumes from its last checkpoint. Without a store, the Dataset
-    (with block snapshots if ``run.snapshot_every`` > 0) is built in memory.
+    With ``store``, samples stream into a zarr v3 store as the run goes, flushed with a
+    checkpoint and the ``progress`` attrs every ``flush_seconds`` of wall time (default
+    :data:`FLUSH_SECONDS`); if the store holds an unfinished run of the same scenario, the
+    run resumes from its last checkpoint. Without a store, the Dataset (with block
+    snapshots if ``run.snapshot_every`` > 0) is built in memory. ``progress`` shows a
+    progress bar (simulated time, slip, events/s, ETA).
     """
     scenario = resolve_seed(scenario, seed)
     run = Run(scenario)
     writer = RunStore(store) if store is not None else None
-    fresh = True
+    interval = FLUSH_SECONDS if flush_seconds is None else flush_seconds
+    previous = None
     if writer is not None and writer.exists():
-        fresh = not _resume(run, writer)
+        previous = _resume(run, writer)
+    fresh = previous is None
+    wall_before = 0.0 if previous is None else float(previous.get("wall_seconds", 0.0))
     samples: list[dict[str, Any]] = []
     snaps: list[dict[str, np.ndarray]] = []
     every = scenario.run.snapshot_every
@@ -328,12 +353,12 @@ def simulate(
     last_flush = wallclock.perf_counter()
     bar = tqdm(
         total=float(scenario.total_time),
+        initial=run.simulated_time,
         unit="s sim",
         disable=not progress,
         leave=False,
         bar_format="{l_bar}{bar}| {n:.3g}/{total:.3g} s simulated [{elapsed}<{remaining}{postfix}]",
     )
-    bar.update(float(run.times[run.next_sample - 1]) if run.next_sample else 0.0)
     started = wallclock.perf_counter()
     events_at_start = int(run.state.events.sum())
     while not run.done:
@@ -349,8 +374,8 @@ def simulate(
             f"slip {sample['slider_displacement']:.3g} m, {rate:.3g} events/s", refresh=False
         )
         now = wallclock.perf_counter()
-        if writer is not None and (run.done or now - last_flush > FLUSH_SECONDS):
-            _flush(run, writer, samples, snaps, fresh)
+        if writer is not None and (run.done or now - last_flush > interval):
+            _flush(run, writer, samples, snaps, fresh, wall_before + now - started)
             fresh = False
             samples, snaps = [], []
             last_flush = now
@@ -369,7 +394,7 @@ def simulate(
     return result
 
 
-def _flush(run: Run, writer: RunStore, samples, snaps, fresh: bool) -> None:
+def _flush(run: Run, writer: RunStore, samples, snaps, fresh: bool, wall: float) -> None:
     block = dataset(_stack(samples), SAMPLES, "time")
     if fresh:
         writer.create(block, provenance(run.scenario))
@@ -377,12 +402,13 @@ def _flush(run: Run, writer: RunStore, samples, snaps, fresh: bool) -> None:
         writer.append(block)
     if snaps:
         writer.append_snapshots(_snapshot_dataset(snaps))
-    arrays, progress = run.checkpoint()
-    writer.write_checkpoint(arrays, progress)
+    arrays, checkpoint = run.checkpoint()
+    writer.write_checkpoint(arrays, checkpoint, run.progress(wall))
 
 
-def _resume(run: Run, writer: RunStore) -> bool:
-    """Prepare ``run`` to continue the run stored in ``writer``; False to start afresh."""
+def _resume(run: Run, writer: RunStore) -> dict[str, Any] | None:
+    """Prepare ``run`` to continue the run stored in ``writer``: the stored ``progress``
+    attrs, or None to start afresh."""
     stored = writer.attrs
     if stored.get("scenario") != run.scenario.resolved_json():
         raise ScenarioError(
@@ -391,8 +417,8 @@ def _resume(run: Run, writer: RunStore) -> bool:
         )
     checkpoint = writer.read_checkpoint()
     if checkpoint is None:
-        return False
+        return None
     arrays, progress = checkpoint
     writer.truncate(int(progress["samples"]), int(progress.get("snapshots", 0)))
     run.restore(arrays, progress)
-    return True
+    return dict(stored.get("progress", {}))

@@ -157,16 +157,20 @@ class RunStore:
                 array.resize((keep, *array.shape[1:]))
 
     def write_checkpoint(
-        self, arrays: Mapping[str, np.ndarray], progress: Mapping[str, Any]
+        self,
+        arrays: Mapping[str, np.ndarray],
+        resume: Mapping[str, Any],
+        progress: Mapping[str, Any],
     ) -> None:
-        """Store the full kernel state in the free slot, then point the root attrs at it."""
+        """Store the full kernel state in the free slot, then, in one metadata write,
+        point the ``checkpoint`` attr at it (with the ``resume`` data) and set ``progress``."""
         root = zarr.open_group(self.path, mode="a")
         current = root.attrs.get("checkpoint", {}).get("slot")
         slot = "b" if current == "a" else "a"
         group = root.require_group("checkpoint").require_group(slot)
         for name, array in arrays.items():
             group.create_array(name, data=np.asarray(array), overwrite=True)
-        root.attrs.update({"checkpoint": {"slot": slot, **progress}, "progress": dict(progress)})
+        root.attrs.update({"checkpoint": {"slot": slot, **resume}, "progress": dict(progress)})
 
     def read_checkpoint(self) -> tuple[dict[str, np.ndarray], dict[str, Any]] | None:
         """The last complete checkpoint (arrays, progress), or None."""
