@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Iterator, Mapping
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -30,4 +32,36 @@ def summarize(run: xr.Dataset, wall_seconds: float | None = None) -> str:
         lines.append(
             f"wall time             {wall_seconds:.3g} s ({events / wall_seconds:.3g} events/s)"
         )
+    return "\n".join(lines)
+
+
+def _dotted_items(mapping: Mapping[str, Any], prefix: str = "") -> Iterator[tuple[str, Any]]:
+    """(dotted key, value) for every set leaf of a nested scenario mapping."""
+    for name, value in mapping.items():
+        key = f"{prefix}{name}"
+        if isinstance(value, Mapping):
+            yield from _dotted_items(value, f"{key}.")
+        elif isinstance(value, list):
+            yield from _dotted_items(dict(enumerate(value)), f"{key}.")
+        elif value is not None:
+            yield key, value
+
+
+def provenance_text(run: xr.Dataset) -> str:
+    """Provenance of a stored run: completion, progress, seed, versions, resolved scenario."""
+    attrs = run.attrs
+    progress = attrs.get("progress", {})
+    lines = [f"complete              {'yes' if attrs.get('complete') else 'no'}"]
+    if "fraction" in progress:
+        lines.append(
+            f"progress              {progress['simulated_time']:.4g} of "
+            f"{progress['end_time']:.4g} s simulated ({progress['fraction']:.1%}), "
+            f"{progress['events']:,} depinnings, {progress['wall_seconds']:.3g} s wall"
+        )
+    versions = ", ".join(
+        f"{name} {attrs[f'{name}_version']}" for name in ("nanoblock", "numba", "numpy")
+    )
+    lines += [f"seed                  {attrs['seed']}", f"versions              {versions}"]
+    lines.append("scenario")
+    lines += [f"  {key} = {value}" for key, value in _dotted_items(json.loads(attrs["scenario"]))]
     return "\n".join(lines)
