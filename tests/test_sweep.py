@@ -1,0 +1,221 @@
+"""Issue 5: parameter sweeps on Dask (LocalCluster of 2 workers), manifest, re-runs,
+worker loss, the lazily combined Dataset, and refused input."""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+from pathlib import Path
+
+import dask
+import dask.array as da
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from nanoblock.cli import app
+from nanoblock.engine import simulate
+from nanoblock.store import SAMPLES
+from nanoblock.sweep import (
+    MANIFEST,
+    Sweep,
+    SweepError,
+    is_finished,
+    key_attrs,
+    open_sweep,
+    parse_assignment,
+    run_sweep,
+    run_task,
+)
+
+TINY = """
+[joint]
+block_size = 2.75e-9
+shear_modulus = 1.0e9
+threshold_stress = 1.0e8
+attempt_frequency = 1.0e12
+temperature = 300.0
+k2 = 0.0
+slip = "reset"
+
+[interface]
+normal_force = 1.0
+hardness = 1.0e8
+n_contacts = 10
+blocks_per_contact = 10
+memory_length = 1e-8
+aging_m = 0.05
+
+[loading]
+stiffness = 1e6
+steps = [{ velocity = 1e-6, displacement = 3e-9 }]
+
+[run]
+record_every = 5e-4
+initial_state = "steady"
+"""
+"""A mean-field joint of 10 x 10 blocks sliding 3 nm: a few tenths of a second per run."""
+
+SETS = ["joint.temperature=280,300,320", "loading.steps.0.velocity=1e-7,1e-6,1e-5"]
+GRID = ["--set", SETS[0], "--set", SETS[1], "--seeds", "2"]
+
+
+@pytest.fixture
+def tiny(tmp_path: Path) -> Path:
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY)
+    return path
+
+
+def sweep_cli(*args: str):
+    return CliRunner().invoke(app, ["sweep", *args, "--quiet"])
+
+
+def modification_times(directory: Path) -> dict[str, int]:
+    return {str(p.relative_to(directory)): p.stat().st_mtime_ns for p in directory.rglob("*")}
+
+
+def test_sweep_of_3x3x2_tasks_on_two_workers_combines_lazily(tiny: Path, tmp_path: Path) -> None:
+    out = tmp_path / "sweep"
+    result = sweep_cli(str(tiny), *GRID, "--out", str(out), "--workers", "2")
+    assert result.exit_code == 0, result.output
+    assert "18 tasks, 18 run now" in result.output
+    manifest = json.loads((out / MANIFEST).read_text())
+    assert manifest["sweep"]["keys"] == ["joint.temperature", "loading.steps.0.velocity"]
+    assert manifest["sweep"]["values"] == [[280, 300, 320], [1e-7, 1e-6, 1e-5]]
+    assert manifest["sweep"]["seeds"] == [0, 1]
+    assert [entry["status"] for entry in manifest["tasks"]] == ["done"] * 18
+    assert all(is_finished(out / entry["store"]) for entry in manifest["tasks"])
+
+    combined = open_sweep(out)
+    keys = ("joint.temperature", "loading.steps.0.velocity")
+    assert combined.friction_coefficient.dims == (*keys, "seed", "sample")
+    assert combined.friction_coefficient.shape[:3] == (3, 3, 2)
+    assert combined["joint.temperature"].attrs["units"] == "K"
+    assert combined["loading.steps.0.velocity"].attrs["units"] == "m/s"
+    assert combined.time.attrs["units"] == "s"
+    for name in [*SAMPLES, *combined.coords]:
+        assert {"units", "long_name"} <= set(combined[name].attrs), name
+    for name in [*SAMPLES, "time"]:
+        assert isinstance(combined[name].data, da.Array), name  # lazy, nothing loaded
+
+    # one task, read back through the combined Dataset, is the in-process run bit for bit
+    point = {"joint.temperature": 320, "loading.steps.0.velocity": 1e-5, "seed": 1}
+    task = combined.sel(point)
+    assert task.task.item() == "0017"
+    last = Sweep.from_file(tiny, SETS, n_seeds=2).tasks()[17]
+    assert last.params | {"seed": last.seed} == point
+    alone = simulate(last.scenario)
+    n = alone.sizes["time"]
+    for name in SAMPLES:
+        np.testing.assert_array_equal(task[name].values[:n], alone[name].values, err_msg=name)
+    assert np.isnan(task.time.values[n:]).all()  # a 100x faster run is shorter: NaN-padded
+    assert combined.sel(point | {"loading.steps.0.velocity": 1e-7}).time.notnull().all()
+
+    # the same command again runs nothing and touches no store
+    before = modification_times(out / "tasks")
+    again = sweep_cli(str(tiny), *GRID, "--out", str(out), "--workers", "2")
+    assert again.exit_code == 0 and "0 run now, 18 finished before" in again.output
+    assert modification_times(out / "tasks") == before
+
+    # another sweep into the same directory is refused; nothing is overwritten
+    manifest_text = (out / MANIFEST).read_text()
+    other = sweep_cli(str(tiny), "--set", "joint.temperature=290", "--out", str(out))
+    assert other.exit_code == 2
+    assert "holds another sweep" in other.output and "values" in other.output
+    assert (out / MANIFEST).read_text() == manifest_text
+    assert modification_times(out / "tasks") == before
+
+
+def kill_worker_for(scenario_json: str, store: str, *, victim: str) -> float:
+    """Task function (test-only): the victim task kills its own worker process."""
+    if Path(store).stem == victim:
+        os._exit(1)
+    return run_task(scenario_json, store)
+
+
+def test_killed_worker_loses_only_its_task_and_rerun_completes_it(
+    tiny: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "sweep"
+    sweep = Sweep.from_file(tiny, ["joint.temperature=280,300,320"], n_seeds=2)
+    victim = functools.partial(kill_worker_for, victim="0003")
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        report = run_sweep(sweep, out, workers=2, task_function=victim)
+    (failed,) = report.entries("failed")
+    assert failed["task"] == "0003" and "KilledWorker" in failed["error"]
+    assert failed["params"] == {"joint.temperature": 300} and failed["seed"] == 1
+    done = [entry["task"] for entry in report.entries("done")]
+    assert done == ["0000", "0001", "0002", "0004", "0005"]
+    assert not is_finished(out / "tasks/0003.zarr")
+    partial = open_sweep(out)
+    assert partial.attrs["missing_tasks"] == ["0003"]
+    assert np.isnan(partial.friction_force.sel({"joint.temperature": 300, "seed": 1})).all()
+    info = CliRunner().invoke(app, ["info", str(out)])
+    assert "6: 5 done, 1 failed" in info.output
+    assert "0003 (joint.temperature=300, seed=1): KilledWorker" in info.output
+
+    before = modification_times(out / "tasks")
+    rerun = run_sweep(sweep, out, workers=2)
+    assert rerun.ran == ["0003"]
+    assert [entry["status"] for entry in rerun.manifest["tasks"]] == ["done"] * 6
+    after = modification_times(out / "tasks")
+    assert {k: v for k, v in after.items() if not k.startswith("0003")} == before
+    assert open_sweep(out).friction_force.notnull().any("sample").all()
+
+
+def test_values_are_read_as_toml_scalars_and_keys_carry_units() -> None:
+    axis = parse_assignment("joint.barrier=persson,spinodal")
+    assert axis.values == ("persson", "spinodal")
+    assert parse_assignment("interface.memory_length=1e-7, inf").values == (1e-7, float("inf"))
+    assert parse_assignment("interface.n_contacts=10,20").values == (10, 20)
+    assert key_attrs("loading.steps.1.hold") == {
+        "units": "s",
+        "long_name": "hold duration at rest (loading.steps.1.hold)",
+    }
+    assert key_attrs("interface.n_contacts")["units"] == "1"
+
+
+@pytest.mark.parametrize(
+    ("assignment", "message"),
+    [
+        ("joint.temprature=280,300", "unknown key 'joint.temprature'"),
+        ("joint.temperature=300,-5", "joint.temperature = -5"),
+        ("joint.temperature=300,-5", "allowed range (0.0, inf)"),
+        ("loading.steps.2.velocity=1e-6", "loading.steps has 1 entries"),
+        ("loading.steps.velocity=1e-6", "loading.steps is a list; give an index"),
+        ("joint=1", "'joint' is a table, not a value"),
+        ("run.seed=1,2", "--seeds"),
+        ("joint.temperature", "expected KEY=V1,V2"),
+    ],
+)
+def test_bad_sweep_input_exits_2_naming_the_key(
+    tiny: Path, tmp_path: Path, assignment: str, message: str
+) -> None:
+    out = tmp_path / "sweep"
+    result = sweep_cli(str(tiny), "--set", assignment, "--out", str(out))
+    assert result.exit_code == 2
+    assert message in result.output
+    assert not out.exists()
+
+
+def test_unreachable_scheduler_exits_2_quickly(tiny: Path, tmp_path: Path) -> None:
+    out = tmp_path / "sweep"
+    address = "tcp://127.0.0.1:9"
+    args = ["--scheduler", address, "--connect-timeout", "1", "--out", str(out)]
+    result = sweep_cli(str(tiny), *args)
+    assert result.exit_code == 2
+    assert f"cannot reach the Dask scheduler at '{address}'" in result.output
+    assert not out.exists()
+
+
+def test_a_directory_that_is_not_a_sweep_is_refused(tiny: Path, tmp_path: Path) -> None:
+    out = tmp_path / "run.zarr"
+    simulate(Sweep.from_file(tiny, []).tasks()[0].scenario, out)
+    before = modification_times(out)
+    result = sweep_cli(str(tiny), "--out", str(out))
+    assert result.exit_code == 2 and "is not a sweep directory" in result.output
+    assert modification_times(out) == before
+    with pytest.raises(SweepError, match="not a sweep directory"):
+        open_sweep(out)
