@@ -11,7 +11,7 @@ The sweep directory holds::
 A failed task (an exception, or its worker dying) is recorded in the manifest with its
 error; the others are kept. Running the same sweep again skips finished stores and
 resumes unfinished ones from their checkpoints. :func:`open_sweep` combines the finished
-stores lazily into one Dataset with dims ``(*keys, seed, time)``.
+stores lazily into one Dataset with dims ``(*keys, seed, sample)``.
 """
 
 from __future__ import annotations
@@ -216,7 +216,9 @@ class Sweep:
             if len(set(map(repr, axis.values))) < len(axis.values):
                 raise SweepError(f"key {axis.key!r}: repeated values {list(axis.values)}")
             key_field(axis.key)
-        first = int(base.get("run", {}).get("seed") or 0)
+        first = base.get("run", {}).get("seed", 0)
+        if not isinstance(first, int) or first < 0:
+            raise SweepError(f"{path}: run.seed = {first!r}; a non-negative integer is required")
         sweep = cls(base, axes, tuple(range(first, first + n_seeds)))
         sweep.tasks()
         return sweep

@@ -12,6 +12,7 @@ import dask
 import dask.array as da
 import numpy as np
 import pytest
+from distributed import LocalCluster
 from typer.testing import CliRunner
 
 from nanoblock.cli import app
@@ -163,6 +164,18 @@ def test_killed_worker_loses_only_its_task_and_rerun_completes_it(
     after = modification_times(out / "tasks")
     assert {k: v for k, v in after.items() if not k.startswith("0003")} == before
     assert open_sweep(out).friction_force.notnull().any("sample").all()
+
+
+def test_sweep_runs_on_an_existing_scheduler(tiny: Path, tmp_path: Path) -> None:
+    sweep = Sweep.from_file(tiny, [], n_seeds=2)
+    cluster = LocalCluster(n_workers=1, processes=False, dashboard_address=None)
+    with cluster:
+        report = run_sweep(sweep, tmp_path / "sweep", scheduler=cluster.scheduler_address)
+    assert report.ran == ["0000", "0001"]
+    assert [entry["status"] for entry in report.manifest["tasks"]] == ["done", "done"]
+    combined = open_sweep(tmp_path / "sweep")
+    assert combined.friction_force.dims == ("seed", "sample")
+    np.testing.assert_array_equal(combined.seed, [0, 1])
 
 
 def test_values_are_read_as_toml_scalars_and_keys_carry_units() -> None:
