@@ -174,9 +174,11 @@ def plot(
         Path | None, typer.Option("--out", "-o", help="directory (default: next to STORE)")
     ] = None,
 ) -> None:
-    """Write the standard figures of a run store as PNGs: friction vs slip and time,
-    velocity, and (with block snapshots) the stress histogram against the mean-field
-    Q_st and the contact-age distribution."""
+    """Write the standard figures of a run store as PNGs.
+
+    Friction vs slip and time, velocities, and with block snapshots the stress histogram
+    (against the mean-field Q_st where it applies) and the contact-age distribution.
+    """
     from nanoblock.figures import standard_figures
 
     _require_store(store)
@@ -188,8 +190,10 @@ def plot(
 def info(
     store: Annotated[Path, typer.Argument(exists=True, help="run store, or sweep directory")],
 ) -> None:
-    """Print a run store's provenance (completion, progress, seed, versions, scenario) and
-    summary, or a sweep directory's task status."""
+    """Print a run store's provenance and summary, or a sweep directory's task status.
+
+    Provenance: completion, progress, seed, versions and the resolved scenario.
+    """
     from nanoblock.store import RunStore
     from nanoblock.summary import provenance_text, summarize
     from nanoblock.sweep import MANIFEST, sweep_summary
