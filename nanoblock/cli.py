@@ -210,6 +210,49 @@ def info(
 
 
 @app.command()
+def fit(
+    data: Annotated[Path, typer.Argument(help="measured data: CSV, netCDF or zarr")],
+    law: Annotated[str, typer.Option(help="RSF law (aging, slip, tabor, silicon, two_state)")] = (
+        "aging"
+    ),
+    out: Annotated[Path, typer.Option("--out", "-o", help="output directory")] = Path("fit"),
+    stiffness: Annotated[
+        float | None,
+        typer.Option(help="stiffness per normal load K/W [1/m] (default: metadata, or fit)"),
+    ] = None,
+    trend: Annotated[bool, typer.Option(help="fit a linear friction trend with slip")] = False,
+    mcmc: Annotated[bool, typer.Option(help="sample the posterior with emcee")] = False,
+    mcmc_steps: Annotated[int, typer.Option(min=10, help="MCMC steps per walker")] = 2000,
+) -> None:
+    """Fit a rate-and-state law to velocity steps or slide-hold-slide data.
+
+    Writes OUT/fit.json (law, params with mu0, a, b, dc [m], stderr, rms_residual,
+    n_points), OUT/report.md and OUT/fit.png (data, fit and residuals).
+    """
+    from nanoblock.measured import DataError, load_measurement
+    from nanoblock.rsf.fit import fit_rsf
+    from nanoblock.rsf.report import write_fit
+
+    with _bad_input(DataError, ValueError):
+        measurement = load_measurement(data)
+        result = fit_rsf(
+            measurement,
+            law,
+            stiffness=stiffness,
+            trend=trend,
+            method="mcmc" if mcmc else "lsq",
+            mcmc_steps=mcmc_steps,
+        )
+    written = write_fit(result, measurement, out)
+    for key in ("mu0", "a", "b", "dc"):
+        value, error = result.contract[key], result.contract_stderr[key]
+        typer.echo(f"{key:<6}{value:>12.5g}  +- {error if error is not None else 0:.2g}")
+    typer.echo(f"rms residual {result.rms_residual:.3g} over {result.n_points} samples")
+    for path in written.values():
+        typer.echo(str(path))
+
+
+@app.command()
 def version() -> None:
     """Print the package version."""
     import nanoblock

@@ -40,7 +40,8 @@ def naive_slider(
 
     def rhs(t: float, y: np.ndarray) -> list[float]:
         mu, theta = y
-        v = v0 * math.exp((mu - mu0 - b * math.log(v0 * theta / dc)) / a)
+        theta = max(theta, 1e-300)  # Newton iterates of Radau may probe theta <= 0
+        v = v0 * math.exp(min((mu - mu0 - b * math.log(v0 * theta / dc)) / a, 700.0))
         if law == "aging":
             dtheta = 1.0 - v * theta / dc
         else:

@@ -146,7 +146,7 @@ class Law:
 
 
 _MU0 = Parameter("mu0", "1", "steady friction at v0", positive=False)
-_A = Parameter("a", "1", "direct-effect coefficient A", positive=False)
+_A = Parameter("a", "1", "direct-effect coefficient A (> 0: the quasi-static slider needs it)")
 _B = Parameter("b", "1", "evolution-effect coefficient B", positive=False)
 _DC = Parameter("dc", "m", "memory (critical slip) length D_c", log_scale=True)
 _V0 = Parameter("v0", "m/s", "reference velocity (held fixed)", log_scale=True)
@@ -196,6 +196,8 @@ class SlipLaw(_LogVelocityLaw):
     """Ruina slip law: theta' = -(v theta / Dc) ln(v theta / Dc) (000/Eq. 3)."""
 
     def state_rate(self, v, s, p):
+        if v <= 0.0:  # v ln v -> 0: no evolution at rest (v underflows after long holds)
+            return (0.0,)
         return (-(v / p[3]) * (math.log(v / p[3]) + s[0]),)
 
 
@@ -304,7 +306,7 @@ class TwoStateLaw(SiliconLaw):
 
 
 _SILICON_PARAMETERS = (
-    Parameter("a", "1", "direct-effect coefficient A", positive=False),
+    Parameter("a", "1", "direct-effect coefficient A"),
     Parameter("b", "1", "state coefficient B"),
     _DC,
     Parameter("theta_star", "1", "state scale theta*", log_scale=True),
@@ -334,7 +336,7 @@ LAWS: dict[str, Law] = {
             "generalised Tabor product form (001/Eq. 14)",
             (
                 _MU0,
-                Parameter("alpha", "1", "relative direct effect alpha", positive=False),
+                Parameter("alpha", "1", "relative direct effect alpha"),
                 Parameter("m", "1", "relative area creep m", positive=False),
                 Parameter("d0", "m", "memory length D0", log_scale=True),
                 _V0,

@@ -19,13 +19,14 @@ times, so the sampling rate never changes the solution.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike, NDArray
-from scipy.integrate import odeint
+from scipy.integrate import ODEintWarning, odeint
 
 from nanoblock.rsf.laws import Law
 
@@ -35,7 +36,7 @@ __all__ = ["LoadPointHistory", "SliderSolution", "solve_slider"]
 
 RTOL = 1e-10
 ATOL = 1e-12
-_MAX_STEPS = 1_000_000
+MAX_STEPS = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -76,13 +77,26 @@ class LoadPointHistory:
         return cls(starts, np.array(velocities))
 
     @classmethod
-    def from_samples(cls, time: ArrayLike, velocity: ArrayLike) -> LoadPointHistory:
-        """From a sampled piecewise-constant velocity column; a change between two samples
-        is placed midway between them."""
+    def from_samples(
+        cls, time: ArrayLike, velocity: ArrayLike, displacement: ArrayLike | None = None
+    ) -> LoadPointHistory:
+        """From a sampled piecewise-constant velocity column.
+
+        A change between samples i-1 and i is placed where the measured load-point
+        ``displacement`` (if given) says it happened, x_i - x_(i-1) = V_(i-1) (t_s -
+        t_(i-1)) + V_i (t_i - t_s), kept within the two samples; midway otherwise.
+        """
         time = np.asarray(time, dtype=float)
         velocity = np.asarray(velocity, dtype=float)
         change = np.flatnonzero(np.diff(velocity) != 0.0) + 1
-        starts = np.concatenate([[time[0]], 0.5 * (time[change - 1] + time[change])])
+        before, after = time[change - 1], time[change]
+        switch = 0.5 * (before + after)
+        if displacement is not None:
+            x = np.asarray(displacement, dtype=float)
+            v1, v2 = velocity[change - 1], velocity[change]
+            located = (x[change] - x[change - 1] - v2 * after + v1 * before) / (v1 - v2)
+            switch = np.where(np.isfinite(located), np.clip(located, before, after), switch)
+        starts = np.concatenate([[time[0]], switch])
         return cls(starts, np.concatenate([[velocity[0]], velocity[change]]))
 
     def velocity_at(self, t: ArrayLike) -> FloatArray:
@@ -189,13 +203,15 @@ def solve_slider(
     initial_state: Sequence[float] | None = None,
     rtol: float = RTOL,
     atol: float = ATOL,
+    max_steps: int = MAX_STEPS,
 ) -> SliderSolution:
     """Integrate the spring-slider from ``times[0]`` and sample it at ``times`` [s].
 
     ``stiffness`` is K/W [1/m] (``inf`` for velocity control), ``mass`` is M/W [s^2/m].
     The slider starts at ``initial_velocity`` (default V_L(times[0])) in ``initial_state``
     (law state coordinates; default the steady state at that velocity); slip and
-    load-point displacement are measured from ``times[0]``.
+    load-point displacement are measured from ``times[0]``. ``max_steps`` bounds the
+    LSODA steps per output interval (a ``RuntimeError`` beyond).
     """
     p = law.pack(params)
     times = np.asarray(times, dtype=float)
@@ -240,10 +256,12 @@ def solve_slider(
         grid = np.unique(np.concatenate([[t_now], inside, [stop]]))
         if grid.size > 1:
             try:
-                solution, info = odeint(
-                    rhs, y, grid, args=(float(drive),), tfirst=True, rtol=rtol, atol=atol,
-                    mxstep=_MAX_STEPS, full_output=True,
-                )  # fmt: skip
+                with warnings.catch_warnings():  # failure is reported below, with context
+                    warnings.simplefilter("ignore", ODEintWarning)
+                    solution, info = odeint(
+                        rhs, y, grid, args=(float(drive),), tfirst=True, rtol=rtol, atol=atol,
+                        mxstep=max_steps, full_output=True,
+                    )  # fmt: skip
                 message = info["message"]
             except OverflowError as error:
                 message = f"overflow ({error})"

@@ -1,0 +1,83 @@
+"""Benchmark of the RSF forward model and fit (issue 3).
+
+Times (best of several repeats, one process, this machine):
+* a 5-step velocity-step forward model (aging law, 5,000 output samples) with
+  ``nanoblock.rsf.solve_slider`` and with the naive ``odeint`` implementation written the
+  usual way (``tests/naive_rsf.py``, one call over the whole record); both at the same
+  tolerances, with the maximum difference between them;
+* a full fit (aging law, with slip trend) of each velocity step in ``../shared/data``
+  (skipped when absent) and of a synthetic 5,000-sample step.
+
+Run: ``python benchmarks/bench_rsf.py``; writes ``benchmarks/results_rsf.json``.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from nanoblock.measured import load_measurement  # noqa: E402
+from nanoblock.rsf.fit import fit_rsf  # noqa: E402
+from nanoblock.rsf.laws import law  # noqa: E402
+from nanoblock.rsf.slider import LoadPointHistory, solve_slider  # noqa: E402
+from tests.naive_rsf import naive_slider  # noqa: E402
+from tests.rsf_synthetic import record  # noqa: E402
+
+PARAMS = {"mu0": 0.6, "a": 0.01, "b": 0.014, "dc": 1e-5, "v0": 1e-6}
+STIFFNESS = 3000.0
+SEGMENTS = [(1e-6, 30.0), (1e-5, 10.0), (1e-6, 60.0), (1e-5, 10.0), (1e-4, 2.0)]
+DATA = ROOT.parent / "shared" / "data"
+
+
+def best_of(function, repeats: int = 5) -> float:
+    """Shortest wall time of ``repeats`` calls [s]."""
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        function()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def main() -> None:
+    times = np.linspace(0.0, sum(d for _, d in SEGMENTS), 5000)
+    history = LoadPointHistory.from_segments(SEGMENTS)
+    ours = solve_slider(law("aging"), PARAMS, history, times, STIFFNESS, rtol=1e-10).friction
+    usual = naive_slider("aging", PARAMS, SEGMENTS, times, STIFFNESS, solver="odeint", rtol=1e-10)
+    results = {
+        "machine": f"{platform.processor() or platform.machine()}, {platform.python_version()}",
+        "forward_5_steps_nanoblock_s": best_of(
+            lambda: solve_slider(law("aging"), PARAMS, history, times, STIFFNESS, rtol=1e-10)
+        ),
+        "forward_5_steps_usual_odeint_s": best_of(
+            lambda: naive_slider(
+                "aging", PARAMS, SEGMENTS, times, STIFFNESS, solver="odeint", rtol=1e-10
+            )
+        ),
+        "forward_max_difference": float(np.max(np.abs(ours - usual))),
+    }
+    rng = np.random.default_rng(0)
+    synthetic = record("aging", PARAMS, "velocity_step", STIFFNESS, rng, n_samples=5000)
+    results["fit_synthetic_5000_samples_s"] = best_of(
+        lambda: fit_rsf(synthetic, "aging", stiffness=STIFFNESS), repeats=3
+    )
+    for path in sorted(DATA.glob("*.csv")):
+        data = load_measurement(path)
+        results[f"fit_{path.stem}_s"] = best_of(
+            lambda data=data: fit_rsf(data, "aging", trend=True), repeats=3
+        )
+    for key, value in results.items():
+        print(f"{key:<48} {value:.4g}" if isinstance(value, float) else f"{key:<48} {value}")
+    (ROOT / "benchmarks" / "results_rsf.json").write_text(json.dumps(results, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()

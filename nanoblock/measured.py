@@ -1,0 +1,245 @@
+"""Reading measured friction data (physics.md section 6) into one validated Dataset.
+
+Accepted files: CSV whose leading ``# key: value`` lines are metadata, netCDF (``.nc``)
+or zarr with the same variable names. Three kinds of data come out, told apart by their
+columns and recorded in ``attrs["kind"]``:
+
+* ``time_series``: ``time`` [s], ``mu`` (or ``force`` [N] with ``normal_force`` [N]) and
+  the drive as ``load_point_velocity`` [m/s] and/or ``load_point_displacement`` [m]
+  (velocity steps, slide-hold-slide);
+* ``clamped_sample``: 000's apparatus, ``time``, ``s_ext`` and ``s`` [m] (metadata
+  ``apparatus: clamped_sample``, ``k_s``, ``k_f``, ``k_ext`` [N/m]);
+* ``steady_state``: a table without ``time``: ``mu`` against ``load_point_velocity``
+  [m/s] (optionally ``temperature`` [K], ``normal_force`` [N]).
+
+Optional per-row columns: ``slip`` [m], ``normal_force`` [N], ``temperature`` [K] and
+``run`` (an id grouping the rows of one experiment). The result has one dimension,
+``sample``; every variable carries ``units`` and ``long_name``. Rows with a missing
+(NaN) required value are dropped with a warning that counts them; anything else that is
+wrong raises :class:`DataError` naming the file, the column and the row.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+__all__ = ["COLUMNS", "DataError", "DroppedRowsWarning", "load_measurement", "runs"]
+
+
+class DataError(ValueError):
+    """Measured data that cannot be used as given."""
+
+
+class DroppedRowsWarning(UserWarning):
+    """Rows with missing values were dropped (the message counts them)."""
+
+
+COLUMNS: dict[str, tuple[str, str]] = {
+    "time": ("s", "time"),
+    "mu": ("1", "friction coefficient (shear / normal)"),
+    "force": ("N", "friction force"),
+    "normal_force": ("N", "normal force"),
+    "load_point_velocity": ("m/s", "load-point velocity"),
+    "load_point_displacement": ("m", "load-point displacement"),
+    "slip": ("m", "slip (load point minus elastic stretch)"),
+    "temperature": ("K", "temperature"),
+    "run": ("1", "run id"),
+    "s_ext": ("m", "external (motor) extension"),
+    "s": ("m", "sample extension"),
+}
+"""Known columns: (units, long name)."""
+
+_NUMERIC_METADATA = (
+    "stiffness",
+    "stiffness_per_load",
+    "normal_force",
+    "normal_stress",
+    "temperature",
+    "k_s",
+    "k_f",
+    "k_ext",
+    "c_ext",
+    "c_x",
+    "step_time",
+)
+
+
+def _parse_metadata(lines: list[str], path: Path) -> dict[str, object]:
+    metadata: dict[str, object] = {}
+    for number, line in enumerate(lines, start=1):
+        key, sep, value = line.lstrip("#").partition(":")
+        if not sep:
+            raise DataError(f"{path}: metadata line {number} is not '# key: value': {line!r}")
+        key, value = key.strip(), value.strip()
+        if key in _NUMERIC_METADATA:
+            try:
+                metadata[key] = float(value)
+            except ValueError:
+                raise DataError(
+                    f"{path}: metadata {key!r} on line {number} must be a number, got {value!r}"
+                ) from None
+        else:
+            metadata[key] = value
+    return metadata
+
+
+def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object], int]:
+    text = path.read_text()
+    lines = text.splitlines()
+    n_meta = 0
+    while n_meta < len(lines) and lines[n_meta].startswith("#"):
+        n_meta += 1
+    metadata = _parse_metadata(lines[:n_meta], path)
+    if n_meta == len(lines):
+        raise DataError(f"{path}: no header row after the metadata")
+    header = [name.strip() for name in lines[n_meta].split(",")]
+    if len(set(header)) != len(header):
+        raise DataError(f"{path}: repeated column names in the header {header}")
+    body = "\n".join(lines[n_meta + 1 :])
+    if not body.strip():
+        raise DataError(f"{path}: no data rows")
+    try:
+        table = np.genfromtxt(
+            io.StringIO(body), delimiter=",", dtype=float, invalid_raise=True, ndmin=2
+        )
+    except ValueError as error:
+        raise DataError(f"{path}: malformed data row ({error})") from None
+    if table.shape[1] != len(header):
+        raise DataError(f"{path}: {table.shape[1]} values per row but {len(header)} columns")
+    return {name: table[:, i] for i, name in enumerate(header)}, metadata, n_meta + 2
+
+
+def _read_dataset(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object], int]:
+    if path.suffix == ".nc":
+        dataset = xr.open_dataset(path)
+    else:
+        dataset = xr.open_zarr(path)
+    columns = {}
+    for name in dataset.variables:
+        values = dataset[name].values
+        if values.ndim == 1:
+            columns[str(name)] = values.astype(float)
+    metadata = {
+        key: float(value) if key in _NUMERIC_METADATA else value
+        for key, value in dataset.attrs.items()
+    }
+    return columns, metadata, 1
+
+
+def _kind(columns: dict[str, np.ndarray], metadata: dict[str, object], path: Path) -> str:
+    if metadata.get("apparatus") == "clamped_sample":
+        required = ("time", "s_ext", "s")
+        kind = "clamped_sample"
+    elif "time" not in columns:
+        required, kind = ("mu", "load_point_velocity"), "steady_state"
+    else:
+        kind = "time_series"
+        required = ("time",)
+        if "mu" not in columns and not ({"force", "normal_force"} <= set(columns)):
+            raise DataError(
+                f"{path}: column 'mu' is missing (or give 'force' [N] with 'normal_force' [N])"
+            )
+        if not ({"load_point_velocity", "load_point_displacement"} & set(columns)):
+            raise DataError(
+                f"{path}: the drive is missing: give column 'load_point_velocity' [m/s] "
+                "or 'load_point_displacement' [m]"
+            )
+    for name in required:
+        if name not in columns:
+            raise DataError(f"{path}: required column {name!r} is missing for {kind} data")
+    return kind
+
+
+def _check_order(time: np.ndarray, run: np.ndarray, first_row: int, path: Path) -> None:
+    same_run = run[1:] == run[:-1]
+    bad = np.flatnonzero(same_run & (np.diff(time) <= 0.0))
+    if bad.size:
+        row = int(bad[0]) + 1
+        word = "repeated" if time[row] == time[row - 1] else "decreasing (unsorted)"
+        raise DataError(
+            f"{path}: column 'time' is {word} at data row {row + 1} (file line "
+            f"{first_row + row}): {time[row]!r} after {time[row - 1]!r}"
+        )
+
+
+def load_measurement(path: str | Path) -> xr.Dataset:
+    """Read and validate a measured-data file; see the module docstring for the format."""
+    path = Path(path)
+    if not path.exists():
+        raise DataError(f"{path}: no such file")
+    reader = _read_csv if path.suffix.lower() == ".csv" else _read_dataset
+    columns, metadata, first_row = reader(path)
+    unknown = sorted(set(columns) - set(COLUMNS))
+    if unknown:
+        warnings.warn(
+            f"{path}: ignoring unknown column(s) {unknown}; known: {sorted(COLUMNS)}",
+            stacklevel=2,
+        )
+    kind = _kind(columns, metadata, path)
+    columns = {name: values for name, values in columns.items() if name in COLUMNS}
+    if "mu" not in columns and "force" in columns:
+        columns["mu"] = columns["force"] / columns["normal_force"]
+
+    required = {
+        "time_series": ("time", "mu"),
+        "clamped_sample": ("time", "s_ext", "s"),
+        "steady_state": ("mu", "load_point_velocity"),
+    }[kind]
+    drive = [name for name in ("load_point_velocity", "load_point_displacement") if name in columns]
+    missing = np.zeros(len(next(iter(columns.values()))), dtype=bool)
+    for name in (*required, *drive[:1]):
+        missing |= ~np.isfinite(columns[name])
+    if missing.all():
+        raise DataError(f"{path}: every row has a missing (NaN) value in {list(required)}")
+    if missing.any():
+        rows = np.flatnonzero(missing)[:5] + 1
+        warnings.warn(
+            f"{path}: dropped {int(missing.sum())} of {missing.size} rows with a missing value "
+            f"in {[*required, *drive[:1]]} (first data rows {rows.tolist()})",
+            DroppedRowsWarning,
+            stacklevel=2,
+        )
+        columns = {name: values[~missing] for name, values in columns.items()}
+
+    run = columns.get("run", np.zeros(len(columns[required[0]])))
+    if "time" in columns:
+        _check_order(columns["time"], run, first_row, path)
+    for name in ("load_point_velocity",):
+        if name in columns:
+            velocity = columns[name]
+            bad = np.flatnonzero(~np.isfinite(velocity) | (velocity < 0.0))
+            if kind == "steady_state":
+                bad = np.flatnonzero(~(velocity > 0.0))
+            if bad.size:
+                row = int(bad[0])
+                need = "> 0 (its log is taken)" if kind == "steady_state" else ">= 0"
+                raise DataError(
+                    f"{path}: column {name!r} must be {need} m/s; data row {row + 1} has "
+                    f"{velocity[row]!r}"
+                )
+    for key in ("stiffness", "stiffness_per_load", "normal_force", "k_s", "k_f", "k_ext"):
+        value = metadata.get(key)
+        if value is not None and not (math.isfinite(value) and value > 0.0):
+            raise DataError(f"{path}: metadata {key!r} = {value!r} must be > 0")
+
+    data_vars = {
+        name: ("sample", values, {"units": COLUMNS[name][0], "long_name": COLUMNS[name][1]})
+        for name, values in columns.items()
+    }
+    attrs = {**metadata, "kind": kind, "source_file": str(path)}
+    attrs.setdefault("apparatus", "spring_slider")
+    return xr.Dataset(data_vars, attrs=attrs)
+
+
+def runs(data: xr.Dataset) -> list[xr.Dataset]:
+    """The data split by its ``run`` column (one run if there is none), in file order."""
+    if "run" not in data:
+        return [data]
+    ids, first = np.unique(data["run"].values, return_index=True)
+    return [data.isel(sample=data["run"].values == ids[i]) for i in np.argsort(first)]

@@ -1,0 +1,477 @@
+"""Fitting rate-and-state laws to friction time series (velocity steps, slide-hold-slide).
+
+The model of each run is the spring-slider of :mod:`nanoblock.rsf.slider`, started in
+steady sliding at the first sample's load-point velocity, with the run's own load-point
+history; optionally plus a linear trend of friction with load-point displacement (as
+laboratory fitting tools offer). Free parameters are fitted by nonlinear least squares
+(``scipy.optimize.least_squares``, trust-region reflective) in a scaled space (log for
+lengths, velocities and the stiffness). Standard errors come from the Jacobian at the
+optimum, s^2 (J^T J)^-1 with s^2 the residual variance, computed by SVD so that an
+unidentifiable direction (e.g. D_c on a very soft machine) gets an infinite error
+instead of a spuriously tight one. An optional MCMC mode (``emcee``) samples the
+posterior with flat priors in the scaled space.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+from numpy.typing import NDArray
+from scipy.optimize import least_squares
+
+from nanoblock.measured import DataError, runs
+from nanoblock.rsf.laws import Law, law
+from nanoblock.rsf.slider import LoadPointHistory, solve_slider
+
+FloatArray = NDArray[np.float64]
+
+__all__ = ["FitResult", "RunData", "fit_rsf", "prepare_runs"]
+
+STIFFNESS = "stiffness"
+"""Name of the fitted machine stiffness per normal load K/W [1/m]."""
+TREND = "slip_trend"
+"""Name of the linear trend of friction with load-point displacement [1/m]."""
+
+_COARSE_RTOL = 1e-7
+_SINGULAR = 1e-9
+_DIFF_STEP = 1e-6
+_PENALTY = 1e3
+_START_GRID = {
+    "dc": np.arange(-3.0, 3.5, 1.0),
+    "d0": np.arange(-3.0, 3.5, 1.0),
+    "a": (-0.005, 0.0, 0.01),
+    STIFFNESS: (-1.5, 0.0, 1.5),
+}
+"""Shifts of the starting point (scaled space: ln for dc, d0 and K/W; additive for a),
+evaluated once each; the best ``_REFINED_STARTS`` are refined."""
+_REFINED_STARTS = 2
+_FIT_MAX_STEPS = 5_000
+"""LSODA steps per output interval during fits: pathological trial parameters fail fast."""
+
+
+@dataclass(frozen=True)
+class RunData:
+    """One experiment: samples and the load-point history that drove it (SI units)."""
+
+    time: FloatArray
+    mu: FloatArray
+    history: LoadPointHistory
+    load_point_displacement: FloatArray
+    """Measured from the run's first sample [m]."""
+
+
+def _history_from_displacement(time: FloatArray, displacement: FloatArray) -> LoadPointHistory:
+    """Piecewise-constant V_L from a displacement record: finite differences, merged into
+    segments whose velocities agree within 20 % (holds: |V| below 1e-3 of the median)."""
+    velocity = np.diff(displacement) / np.diff(time)
+    scale = np.median(np.abs(velocity)) or 1.0
+    velocity = np.where(np.abs(velocity) < 1e-3 * scale, 0.0, np.maximum(velocity, 0.0))
+    starts, values, begin = [time[0]], [], 0
+    for i in range(1, velocity.size + 1):
+        block = velocity[begin:i]
+        ratio = (block.max() + 1e-300) / (block.min() + 1e-300)
+        if i == velocity.size or (block.min() == 0.0) != (block.max() == 0.0) or ratio > 1.2:
+            end = i if i == velocity.size else i - 1
+            dx = displacement[end] - displacement[begin]
+            values.append(max(dx / (time[end] - time[begin]), 0.0))
+            if i < velocity.size:
+                starts.append(time[end])
+            begin = end
+    return LoadPointHistory(np.array(starts), np.array(values))
+
+
+def prepare_runs(data: xr.Dataset) -> list[RunData]:
+    """Split a ``time_series`` measurement into runs with their load-point histories."""
+    if data.attrs.get("kind") != "time_series":
+        raise DataError(
+            f"an RSF fit needs time-series friction data (velocity steps or slide-hold-slide); "
+            f"this file holds {data.attrs.get('kind')!r} data"
+        )
+    prepared = []
+    for run in runs(data):
+        time = run["time"].values
+        if time.size < 10:
+            raise DataError(f"a run has only {time.size} samples; at least 10 are needed")
+        if "load_point_velocity" in run:
+            measured = (
+                run["load_point_displacement"].values if "load_point_displacement" in run else None
+            )
+            history = LoadPointHistory.from_samples(
+                time, run["load_point_velocity"].values, measured
+            )
+            displacement = history.displacement_at(time)
+        else:
+            displacement = run["load_point_displacement"].values
+            history = _history_from_displacement(time, displacement)
+        prepared.append(RunData(time, run["mu"].values, history, displacement - displacement[0]))
+    return prepared
+
+
+def metadata_stiffness(data: xr.Dataset) -> float | None:
+    """K/W [1/m] from the metadata (``stiffness_per_load``, or ``stiffness`` [N/m] with a
+    normal force), or None when it must be fitted."""
+    attrs = data.attrs
+    if "stiffness_per_load" in attrs:
+        return float(attrs["stiffness_per_load"])
+    if "stiffness" in attrs:
+        if "normal_force" in attrs:
+            return float(attrs["stiffness"]) / float(attrs["normal_force"])
+        if "normal_force" in data:
+            return float(attrs["stiffness"]) / float(data["normal_force"].mean())
+    return None
+
+
+@dataclass
+class FitResult:
+    """Fitted parameters with standard errors (SI units), residuals and the fitted model."""
+
+    law: str
+    params: dict[str, float]
+    stderr: dict[str, float]
+    free: tuple[str, ...]
+    contract: dict[str, float | None]
+    contract_stderr: dict[str, float | None]
+    rms_residual: float
+    n_points: int
+    method: str
+    reference_velocity: float
+    model: list[FloatArray] = field(repr=False)
+    residuals: list[FloatArray] = field(repr=False)
+    correlation: FloatArray = field(repr=False)
+    cost_evaluations: int = 0
+
+    def to_json(self) -> dict:
+        """The ``fit.json`` contract: law, params (mu0, a, b, dc and the law's own), stderr,
+        rms_residual, n_points (plus method, free parameters and the law's native set)."""
+
+        def clean(value: float | None) -> float | None:
+            return None if value is None or not math.isfinite(value) else float(value)
+
+        params = {**self.contract, **self.params}
+        stderr = {**self.contract_stderr, **self.stderr}
+        return {
+            "law": self.law,
+            "params": {k: clean(v) for k, v in params.items()},
+            "stderr": {k: clean(v) for k, v in stderr.items()},
+            "rms_residual": self.rms_residual,
+            "n_points": self.n_points,
+            "method": self.method,
+            "free": list(self.free),
+            "reference_velocity": self.reference_velocity,
+            "units": {"dc": "m", "d0": "m", "v0": "m/s", STIFFNESS: "1/m", TREND: "1/m"},
+        }
+
+    def write_json(self, path: str | Path) -> Path:
+        path = Path(path)
+        path.write_text(json.dumps(self.to_json(), indent=2) + "\n")
+        return path
+
+
+@dataclass(frozen=True)
+class _Problem:
+    law: Law
+    runs: list[RunData]
+    fixed: dict[str, float]
+    free: tuple[str, ...]
+    log_scale: tuple[bool, ...]
+
+    def unpack(self, x: Sequence[float]) -> dict[str, float]:
+        values = {
+            name: math.exp(xi) if log else float(xi)
+            for name, xi, log in zip(self.free, x, self.log_scale, strict=True)
+        }
+        return {**self.fixed, **values}
+
+    def pack(self, params: Mapping[str, float]) -> FloatArray:
+        return np.array(
+            [
+                math.log(params[name]) if log else params[name]
+                for name, log in zip(self.free, self.log_scale, strict=True)
+            ]
+        )
+
+    def law_params(self, params: Mapping[str, float]) -> dict[str, float]:
+        return {k: v for k, v in params.items() if k in self.law.names}
+
+    def contract(self, x: Sequence[float], v0: float) -> dict[str, float | None]:
+        return self.law.contract(self.law_params(self.unpack(x)), v0)
+
+    def models(self, params: Mapping[str, float], rtol: float) -> list[FloatArray]:
+        law_params = self.law_params(params)
+        out = []
+        for run in self.runs:
+            solution = solve_slider(
+                self.law, law_params, run.history, run.time, params[STIFFNESS], rtol=rtol,
+                max_steps=_FIT_MAX_STEPS,
+            )  # fmt: skip
+            out.append(solution.friction + params.get(TREND, 0.0) * run.load_point_displacement)
+        return out
+
+    def residuals(self, x: Sequence[float], rtol: float) -> FloatArray:
+        """Model minus data; a failed or non-finite forward run gives a flat penalty so the
+        optimiser backs off instead of stopping."""
+        try:
+            with np.errstate(all="ignore"):
+                models = self.models(self.unpack(x), rtol)
+            residual = np.concatenate([m - r.mu for m, r in zip(models, self.runs, strict=True)])
+        except (RuntimeError, ValueError, OverflowError):
+            residual = np.full(1, np.nan)
+        if not np.all(np.isfinite(residual)):
+            return np.full(sum(r.time.size for r in self.runs), _PENALTY)
+        return residual
+
+
+def _standard_guess(runs_: list[RunData]) -> dict[str, float]:
+    """Rough mu0, a, b, dc and K/W from the first velocity change of the first run that
+    has one."""
+    run = next((r for r in runs_ if r.history.starts.size > 1), runs_[0])
+    starts, velocities = run.history.starts, run.history.velocities
+    before = run.time < (starts[1] if starts.size > 1 else run.time[-1])
+    mu0 = float(np.median(run.mu[before][: max(10, before.sum() // 5)]))
+    guess = {"mu0": mu0, "a": 0.01, "b": 0.01, "dc": 1e-5, "stiffness": 1e3}
+    if starts.size > 1 and velocities[0] > 0 and velocities[1] > 0:
+        jump = math.log(velocities[1] / velocities[0])
+        after = (run.time >= starts[1]) & (run.time < (starts[2] if starts.size > 2 else np.inf))
+        mu_after = run.mu[after]
+        tail = float(np.median(mu_after[-max(5, mu_after.size // 10) :]))
+        early = mu_after[: max(5, mu_after.size // 4)]  # the peak comes within a few Dc
+        peak = float(early.max() if jump > 0 else early.min())
+        a = max(abs((peak - mu0) / jump), 1e-4)
+        b = a - (tail - mu0) / jump
+        slip = velocities[1] * (run.time[after][-1] - starts[1])
+        extreme = int(np.argmax(early) if jump > 0 else np.argmin(early))
+        lp_after = run.load_point_displacement[after]
+        loading = lp_after[extreme] - lp_after[0]
+        # secant of the elastic loading from the step to the peak: a lower bound of K/W
+        secant = abs(peak - mu0) / loading if loading > 0 else 1e-2 / max(slip / 20.0, 1e-9)
+        guess.update(a=a, b=b, dc=max(slip / 20.0, 1e-9), stiffness=secant)
+    return guess
+
+
+def _search_bounds(problem: _Problem, x0: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Box of the search in the scaled space: memory lengths between 1e-6 and 1e3 times
+    the load-point travel L of the longest run (a D_c outside cannot be told from the
+    data; tinier ones only make the ODE stiff), K/W within 1e4 of its first guess, and
+    positive coefficients (a, alpha, ...) above zero."""
+    travel = max(float(np.ptp(run.load_point_displacement)) for run in problem.runs)
+    lower, upper = np.full(x0.size, -np.inf), np.full(x0.size, np.inf)
+    positive = {spec.name for spec in problem.law.parameters if spec.positive}
+    for i, name in enumerate(problem.free):
+        if name in positive and not problem.log_scale[i]:
+            lower[i] = 1e-12
+        if name in ("dc", "d0"):
+            lower[i], upper[i] = math.log(1e-6 * travel), math.log(1e3 * travel)
+        elif name == STIFFNESS:
+            lower[i], upper[i] = x0[i] - math.log(1e4), x0[i] + math.log(1e4)
+    return lower, upper
+
+
+def _initial_params(lw: Law, guess: Mapping[str, float], v0: float) -> dict[str, float]:
+    mu0, a, b, dc = guess["mu0"], guess["a"], guess["b"], guess["dc"]
+    if lw.name in ("aging", "slip"):
+        return {"mu0": mu0, "a": a, "b": b, "dc": dc, "v0": v0}
+    if lw.name == "tabor":
+        return {"mu0": mu0, "alpha": a / mu0, "m": b / mu0, "d0": dc, "v0": v0}
+    theta_star = 1.0
+    params = {
+        "a": a,
+        "b": mu0 / math.log1p(1.0 / theta_star),
+        "dc": dc,
+        "theta_star": theta_star,
+        "v_theta": 10.0 * v0,
+        "v_star": 1e-12,
+    }
+    if lw.name == "two_state":
+        params["aging_rate"] = 1e-3
+    return params
+
+
+def _covariance(jacobian: FloatArray, variance: float) -> FloatArray:
+    """s^2 (J^T J)^-1 by SVD; directions with singular values below 1e-9 of the largest
+    are unidentifiable and get infinite variance."""
+    _, singular, vt = np.linalg.svd(jacobian, full_matrices=False)
+    inverse = np.where(singular > _SINGULAR * singular[0], 1.0 / np.maximum(singular, 1e-300), 0.0)
+    covariance = (vt.T * inverse**2) @ vt * variance
+    unidentified = vt[singular <= _SINGULAR * singular[0]]
+    if unidentified.size:
+        weak = np.any(np.abs(unidentified) > 1e-3, axis=0)
+        covariance[weak, :] = np.inf
+        covariance[:, weak] = np.inf
+    return covariance
+
+
+def _natural_errors(problem: _Problem, x: FloatArray, covariance: FloatArray) -> dict[str, float]:
+    params = problem.unpack(x)
+    errors = {}
+    for i, (name, log) in enumerate(zip(problem.free, problem.log_scale, strict=True)):
+        sigma = math.sqrt(covariance[i, i]) if math.isfinite(covariance[i, i]) else math.inf
+        errors[name] = params[name] * sigma if log else sigma
+    return errors
+
+
+def _contract_errors(
+    problem: _Problem, x: FloatArray, covariance: FloatArray, v0: float
+) -> dict[str, float | None]:
+    """Standard errors of mu0, a, b, dc by the delta method (finite differences)."""
+    base = problem.contract(x, v0)
+    gradient = np.zeros((len(base), x.size))
+    for j in range(x.size):
+        step = 1e-6 * max(1.0, abs(x[j]))
+        shifted = x.copy()
+        shifted[j] += step
+        values = problem.contract(shifted, v0)
+        gradient[:, j] = [(values[k] - base[k]) / step for k in base]
+    errors: dict[str, float | None] = {}
+    for i, key in enumerate(base):
+        used = np.abs(gradient[i]) > 0.0
+        if not used.any():
+            errors[key] = None
+            continue
+        sub = covariance[np.ix_(used, used)]
+        g = gradient[i, used]
+        errors[key] = math.sqrt(max(g @ sub @ g, 0.0)) if np.all(np.isfinite(sub)) else math.inf
+    return errors
+
+
+def _mcmc(
+    problem: _Problem, x: FloatArray, covariance: FloatArray, variance: float, steps: int, seed: int
+) -> tuple[FloatArray, FloatArray]:
+    """Posterior median and covariance in the scaled space (emcee, flat priors)."""
+    try:
+        import emcee
+    except ImportError:
+        raise RuntimeError("the MCMC mode needs emcee: pip install 'nanoblock[mcmc]'") from None
+
+    def log_probability(theta: FloatArray) -> float:
+        r = problem.residuals(theta, _COARSE_RTOL)
+        return -0.5 * float(r @ r) / variance
+
+    rng = np.random.default_rng(seed)
+    n_walkers = max(4 * x.size, 16)
+    finite = np.where(np.isfinite(np.diag(covariance)), np.diag(covariance), 1.0)
+    spread = np.sqrt(np.maximum(finite, 1e-12))
+    start = x + 0.1 * spread * rng.standard_normal((n_walkers, x.size))
+    sampler = emcee.EnsembleSampler(n_walkers, x.size, log_probability)
+    sampler.random_state = np.random.RandomState(seed).get_state()
+    sampler.run_mcmc(start, steps, progress=False)
+    chain = sampler.get_chain(discard=steps // 2, flat=True)
+    return np.median(chain, axis=0), np.cov(chain, rowvar=False).reshape(x.size, x.size)
+
+
+def fit_rsf(
+    data: xr.Dataset,
+    law_name: str = "aging",
+    *,
+    stiffness: float | None = None,
+    trend: bool = False,
+    free: Sequence[str] | None = None,
+    initial: Mapping[str, float] | None = None,
+    method: str = "lsq",
+    mcmc_steps: int = 2000,
+    seed: int = 0,
+) -> FitResult:
+    """Fit ``law_name`` to time-series friction data (a :func:`load_measurement` Dataset).
+
+    ``stiffness`` is K/W [1/m]; when None it is taken from the metadata or, failing that,
+    fitted. ``trend`` adds a linear friction trend with load-point displacement [1/m].
+    ``free`` overrides the law's default free parameters; ``initial`` the starting values
+    (and fixes any law parameter that is not free). ``method`` is ``"lsq"`` or ``"mcmc"``.
+    """
+    lw = law(law_name)
+    if method not in ("lsq", "mcmc"):
+        raise ValueError(f"method {method!r} is not one of 'lsq', 'mcmc'")
+    prepared = prepare_runs(data)
+    v0 = float(prepared[0].history.velocities[0])
+    if not v0 > 0.0:
+        raise DataError("the first sample must be in steady sliding (load-point velocity > 0)")
+    params = _initial_params(lw, _standard_guess(prepared), v0)
+    params.update(initial or {})
+    free_names = list(free if free is not None else lw.default_free)
+    unknown = set(free_names) - set(lw.names) - {STIFFNESS, TREND}
+    if unknown:
+        raise ValueError(f"cannot fit {sorted(unknown)}: law {lw.name!r} takes {list(lw.names)}")
+    given = stiffness if stiffness is not None else metadata_stiffness(data)
+    if given is None:
+        free_names.append(STIFFNESS)
+        params.setdefault(STIFFNESS, 2.0 * _standard_guess(prepared)["stiffness"])
+    else:
+        params[STIFFNESS] = float(given)
+    if trend:
+        free_names.append(TREND)
+        params.setdefault(TREND, 0.0)
+    lw.pack({k: v for k, v in params.items() if k in lw.names})
+    log_scale = {p.name: p.log_scale for p in lw.parameters} | {STIFFNESS: True, TREND: False}
+    problem = _Problem(
+        lw,
+        prepared,
+        {k: v for k, v in params.items() if k not in free_names},
+        tuple(free_names),
+        tuple(log_scale[name] for name in free_names),
+    )
+
+    x0 = problem.pack(params)
+    evaluations = 0
+    starts = [x0]
+    for name, shifts in _START_GRID.items():
+        if name in problem.free:
+            step = np.eye(x0.size)[problem.free.index(name)]
+            starts = [s + shift * step for s in starts for shift in shifts]
+    bounds = _search_bounds(problem, x0)
+    costs = []
+    for start in starts:
+        r = problem.residuals(start, _COARSE_RTOL)
+        costs.append(float(r @ r))
+    evaluations += len(starts)
+    coarse = None
+    for index in np.argsort(costs)[:_REFINED_STARTS]:
+        trial = least_squares(
+            problem.residuals, np.clip(starts[index], *bounds), args=(_COARSE_RTOL,),
+            method="trf", x_scale="jac", diff_step=1e-4, max_nfev=200, bounds=bounds,
+        )  # fmt: skip
+        evaluations += trial.nfev
+        if coarse is None or trial.cost < coarse.cost:
+            coarse = trial
+    fine = least_squares(
+        problem.residuals, coarse.x, args=(1e-10,), method="trf", x_scale="jac",
+        diff_step=_DIFF_STEP, max_nfev=100, bounds=bounds,
+    )  # fmt: skip
+    evaluations += coarse.nfev + fine.nfev
+    x = fine.x
+    residual = fine.fun
+    n = residual.size
+    dof = max(n - x.size, 1)
+    variance = float(residual @ residual) / dof
+    covariance = _covariance(fine.jac, variance)
+    if method == "mcmc":
+        x, covariance = _mcmc(problem, x, covariance, variance, mcmc_steps, seed)
+        residual = problem.residuals(x, 1e-10)
+    best_params = problem.unpack(x)
+    models = problem.models(best_params, 1e-10)
+    diag = np.sqrt(np.where(np.isfinite(np.diag(covariance)), np.diag(covariance), np.nan))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        correlation = covariance / np.outer(diag, diag)
+    errors = _natural_errors(problem, x, covariance)
+    return FitResult(
+        law=lw.name,
+        params=best_params,
+        stderr=errors,
+        free=problem.free,
+        contract=problem.contract(x, v0),
+        contract_stderr=_contract_errors(problem, x, covariance, v0),
+        rms_residual=float(np.sqrt(np.mean(residual**2))),
+        n_points=n,
+        method=method,
+        reference_velocity=v0,
+        model=models,
+        residuals=[m - r.mu for m, r in zip(models, prepared, strict=True)],
+        correlation=correlation,
+        cost_evaluations=evaluations,
+    )

@@ -1,0 +1,125 @@
+"""Outputs of ``nanoblock fit``: ``fit.json``, a two-minute ``report.md`` and a PNG of
+data, fitted model and residuals."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from nanoblock.rsf.fit import STIFFNESS, TREND, FitResult, prepare_runs
+from nanoblock.rsf.laws import law
+
+__all__ = ["plot_fit", "residual_summary", "write_fit"]
+
+_UNITS = {"dc": "m", "d0": "m", "v0": "m/s", "v_theta": "m/s", "v_star": "m/s"}
+_UNITS |= {"aging_rate": "1/s", STIFFNESS: "1/m", TREND: "1/m"}
+
+
+def plot_fit(result: FitResult, data: xr.Dataset, path: str | Path) -> Path:
+    """Friction data and fitted model against load-point displacement, with residuals."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    runs = prepare_runs(data)
+    fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(7, 5.5), height_ratios=[3, 1])
+    for i, (run, model, residual) in enumerate(
+        zip(runs, result.model, result.residuals, strict=True)
+    ):
+        x = run.load_point_displacement * 1e6
+        top.plot(x, run.mu, ".", ms=2, color="0.6", label="data" if i == 0 else None)
+        top.plot(x, model, "-", color="C3", lw=1.2, label=f"{result.law} law" if i == 0 else None)
+        bottom.plot(x, residual, ".", ms=2, color="C0")
+    bottom.axhline(0.0, color="k", lw=0.8)
+    top.set_ylabel("friction coefficient")
+    top.legend(frameon=False)
+    top.set_title(Path(str(data.attrs.get("source_file", "data"))).name, fontsize=9)
+    bottom.set_ylabel("model - data")
+    bottom.set_xlabel("load-point displacement (um)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return Path(path)
+
+
+def residual_summary(result: FitResult) -> dict[str, float]:
+    """Lag-1 autocorrelation and RMS of the residuals (structure left by the law)."""
+    r = np.concatenate(result.residuals)
+    lag1 = float(np.corrcoef(r[:-1], r[1:])[0, 1]) if r.size > 2 else math.nan
+    return {"rms": float(np.sqrt(np.mean(r**2))), "lag1_autocorrelation": lag1}
+
+
+def _format(value: float | None, error: float | None) -> tuple[str, str]:
+    if value is None:
+        return "-", "-"
+    text = f"{value:.5g}"
+    if error is None:
+        return text, "fixed"
+    return text, "unidentified" if not math.isfinite(error) else f"{error:.2g}"
+
+
+def _report(result: FitResult, data: xr.Dataset, figure: str) -> str:
+    contract_rows = []
+    for key in ("mu0", "a", "b", "dc"):
+        value, error = _format(result.contract[key], result.contract_stderr[key])
+        unit = "m" if key == "dc" else "-"
+        contract_rows.append(f"| {key} | {value} | {error} | {unit} |")
+    native_rows = []
+    for key, value in result.params.items():
+        fitted, error = _format(value, result.stderr.get(key))
+        native_rows.append(f"| {key} | {fitted} | {error} | {_UNITS.get(key, '-')} |")
+    a, b = result.contract["a"], result.contract["b"]
+    regime = "velocity weakening (b > a)" if b > a else "velocity strengthening (a >= b)"
+    structure = residual_summary(result)
+    unidentified = [k for k, e in result.stderr.items() if not math.isfinite(e)]
+    stiffness_note = (
+        "fitted (no stiffness in the metadata)"
+        if STIFFNESS in result.free
+        else "taken from the metadata or the caller"
+    )
+    lines = [
+        f"# Rate-and-state fit: {law(result.law).summary}",
+        "",
+        f"Data: `{data.attrs.get('source_file', 'in memory')}`, {result.n_points} samples, "
+        f"method `{result.method}`, reference velocity {result.reference_velocity:.4g} m/s. "
+        f"Machine stiffness K/W {result.params[STIFFNESS]:.4g} 1/m, {stiffness_note}.",
+        "",
+        f"**Result.** a - b = {a - b:.3g}: {regime}. RMS residual {result.rms_residual:.3g}; "
+        f"lag-1 autocorrelation of the residuals {structure['lag1_autocorrelation']:.2f} "
+        "(near 0: white; near 1: structure the law leaves unexplained).",
+        "",
+        "| parameter | value | standard error | unit |",
+        "|---|---|---|---|",
+        *contract_rows,
+        "",
+        "The law's own parameters:",
+        "",
+        "| parameter | value | standard error | unit |",
+        "|---|---|---|---|",
+        *native_rows,
+        "",
+        "Standard errors come from the Jacobian at the optimum with white-noise residuals; "
+        "correlated residuals make them optimistic.",
+    ]
+    if unidentified:
+        lines += [
+            "",
+            f"**Not identifiable from these data:** {', '.join(unidentified)} (the Jacobian "
+            "is singular along them; e.g. a machine too soft to resolve D_c).",
+        ]
+    lines += ["", f"![data, fit and residuals]({figure})", ""]
+    return "\n".join(lines)
+
+
+def write_fit(result: FitResult, data: xr.Dataset, out: str | Path) -> dict[str, Path]:
+    """Write ``fit.json``, ``report.md`` and ``fit.png`` into directory ``out``."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    figure = plot_fit(result, data, out / "fit.png")
+    report = out / "report.md"
+    report.write_text(_report(result, data, figure.name))
+    return {"json": result.write_json(out / "fit.json"), "report": report, "figure": figure}
