@@ -1,0 +1,132 @@
+"""Measured-data reading: the format of physics.md section 6, bad data refused by name,
+dropped rows counted; ``nanoblock fit`` end to end."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from nanoblock.cli import app
+from nanoblock.measured import DataError, DroppedRowsWarning, load_measurement, runs
+from tests.rsf_synthetic import record, write_csv
+
+SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+TRUTH = {"mu0": 0.6, "a": 0.01, "b": 0.013, "dc": 2e-5, "v0": 1e-6}
+
+
+@pytest.fixture
+def csv_text(tmp_path) -> str:
+    rng = np.random.default_rng(0)
+    data = record("aging", TRUTH, "velocity_step", 2500.0, rng, n_samples=200)
+    return write_csv(data, tmp_path / "good.csv", {"stiffness_per_load": 2500}).read_text()
+
+
+def _write(tmp_path: Path, text: str, name: str = "data.csv") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def _edit_row(text: str, row: int, column: int, value: str) -> str:
+    """Replace one value of data row ``row`` (1-based) in a CSV text."""
+    lines = text.splitlines()
+    first = next(i for i, line in enumerate(lines) if not line.startswith("#")) + 1
+    cells = lines[first + row - 1].split(",")
+    cells[column] = value
+    lines[first + row - 1] = ",".join(cells)
+    return "\n".join(lines) + "\n"
+
+
+def test_good_file_reads_with_metadata_and_units(tmp_path, csv_text: str) -> None:
+    data = load_measurement(_write(tmp_path, csv_text))
+    assert data.attrs["kind"] == "time_series"
+    assert data.attrs["stiffness_per_load"] == 2500.0
+    assert data.sizes["sample"] == 200
+    for variable in data.data_vars.values():
+        assert variable.attrs["units"] and variable.attrs["long_name"]
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda t: t.replace(",mu,", ",friction,"), "column 'mu' is missing"),
+        (
+            lambda t: t.replace(",load_point_velocity,load_point_displacement", ",a,b"),
+            "the drive is missing",
+        ),
+        (lambda t: t.replace("# stiffness_per_load: 2500", "# stiffness_per_load: -3"), "> 0"),
+        (
+            lambda t: t.replace("# stiffness_per_load: 2500", "# stiffness_per_load: stiff"),
+            "number",
+        ),
+    ],
+)
+def test_structural_errors_name_the_column_or_key(tmp_path, csv_text, edit, message) -> None:
+    with pytest.raises(DataError) as error:
+        load_measurement(_write(tmp_path, edit(csv_text)))
+    assert message in str(error.value)
+
+
+def test_unsorted_and_repeated_time_name_the_row(tmp_path, csv_text: str) -> None:
+    lines = csv_text.splitlines()
+    header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    row_40 = lines[header + 40].split(",")
+    repeated = _edit_row(csv_text, 41, 0, row_40[0])
+    with pytest.raises(DataError, match=r"'time' is repeated at data row 41"):
+        load_measurement(_write(tmp_path, repeated))
+    unsorted = _edit_row(csv_text, 41, 0, "-1")
+    with pytest.raises(DataError, match=r"decreasing \(unsorted\) at data row 41"):
+        load_measurement(_write(tmp_path, unsorted))
+
+
+def test_nan_rows_are_dropped_with_a_counting_warning(tmp_path, csv_text: str) -> None:
+    text = _edit_row(_edit_row(csv_text, 10, 1, "nan"), 20, 1, "")
+    with pytest.warns(DroppedRowsWarning, match=r"dropped 2 of 200 rows .* \[10, 20\]"):
+        data = load_measurement(_write(tmp_path, text))
+    assert data.sizes["sample"] == 198
+
+
+def test_negative_velocity_and_non_positive_steady_velocity_are_refused(tmp_path, csv_text):
+    with pytest.raises(DataError, match=r"'load_point_velocity' must be >= 0 m/s; data row 5"):
+        load_measurement(_write(tmp_path, _edit_row(csv_text, 5, 2, "-1e-6")))
+    table = "load_point_velocity,mu\n1e-6,0.6\n0,0.61\n1e-4,0.62\n"
+    with pytest.raises(DataError, match=r"must be > 0 \(its log is taken\) m/s; data row 2"):
+        load_measurement(_write(tmp_path, table, "steady.csv"))
+
+
+def test_runs_split_by_run_column(tmp_path) -> None:
+    table = "time,mu,load_point_velocity,run\n0,0.6,1e-6,1\n1,0.6,1e-6,1\n0,0.5,1e-6,2\n"
+    data = load_measurement(_write(tmp_path, table))
+    assert [part.sizes["sample"] for part in runs(data)] == [2, 1]
+
+
+def test_cli_fit_writes_the_contract_and_refuses_an_unknown_law(tmp_path, csv_text) -> None:
+    path = _write(tmp_path, csv_text)
+    result = CliRunner().invoke(
+        app, ["fit", str(path), "--law", "aging", "--out", str(tmp_path / "f")]
+    )
+    assert result.exit_code == 0, result.output
+    content = json.loads((tmp_path / "f" / "fit.json").read_text())
+    assert content["params"]["dc"] == pytest.approx(TRUTH["dc"], rel=0.2)
+    assert (tmp_path / "f" / "report.md").exists() and (tmp_path / "f" / "fit.png").exists()
+    bad = CliRunner().invoke(
+        app, ["fit", str(path), "--law", "ruina", "--out", str(tmp_path / "g")]
+    )
+    assert bad.exit_code == 2
+    assert "unknown law 'ruina'" in bad.output
+    assert not (tmp_path / "g").exists()
+
+
+@pytest.mark.skipif(not SHARED_DATA.is_dir(), reason=f"laboratory data absent ({SHARED_DATA})")
+def test_every_laboratory_file_reads_and_fits() -> None:
+    """The shared p655 and p4309 steps load and fit with a positive a and a finite Dc."""
+    from nanoblock.rsf.fit import fit_rsf
+
+    for path in sorted(SHARED_DATA.glob("*.csv")):
+        result = fit_rsf(load_measurement(path), "aging", trend=True)
+        assert 0.001 < result.contract["a"] < 0.05, path.name
+        assert np.isfinite(result.contract_stderr["dc"]), path.name
