@@ -30,7 +30,7 @@ import matplotlib.pyplot as plt
 
 import nanoblock
 from nanoblock.measured import load_measurement
-from nanoblock.rsf.fit import fit_rsf, prepare_runs
+from nanoblock.rsf.fit import fit_rsf
 from nanoblock.rsf.report import residual_summary
 
 scale = float(os.environ.get("NANOBLOCK_NOTEBOOK_SCALE", "1"))
@@ -75,11 +75,10 @@ fig, axes = plt.subplots(
 for i, path in enumerate(files):
     top, bottom = axes[2 * i], axes[2 * i + 1]
     for j, name in enumerate(laws):
-        data, fit = results[path.stem, name]
-        run = prepare_runs(data)[0]
-        x = run.load_point_displacement * 1e6
+        _, fit = results[path.stem, name]
+        x = fit.abscissa[0] * 1e6
         if j == 0:
-            top.plot(x, run.mu, ".", ms=1.5, color="0.6", label="data")
+            top.plot(x, fit.observed[0], ".", ms=1.5, color="0.6", label="data")
         top.plot(x, fit.model[0], lw=1.2, color=f"C{3 + j}", label=f"{name} law")
         bottom.plot(x, fit.residuals[0], ".", ms=1.5, color=f"C{3 + j}")
     top.set_title(path.name, fontsize=9)

@@ -14,7 +14,8 @@ columns and recorded in ``attrs["kind"]``:
 
 Optional per-row columns: ``slip`` [m], ``normal_force`` [N], ``temperature`` [K] and
 ``run`` (an id grouping the rows of one experiment). The result has one dimension,
-``sample``; every variable carries ``units`` and ``long_name``. Rows with a missing
+``sample``; every variable carries ``units`` and ``long_name``. Time must increase within
+a run (in a clamped-sample file without ``run``, each normal force is a run). Rows with a missing
 (NaN) required value are dropped with a warning that counts them; anything else that is
 wrong raises :class:`DataError` naming the file, the column and the row.
 """
@@ -208,6 +209,8 @@ def load_measurement(path: str | Path) -> xr.Dataset:
         columns = {name: values[~missing] for name, values in columns.items()}
 
     run = columns.get("run", np.zeros(len(columns[required[0]])))
+    if "run" not in columns and kind == "clamped_sample" and "normal_force" in columns:
+        run = columns["normal_force"]  # one run per normal force
     if "time" in columns:
         _check_order(columns["time"], run, first_row, path)
     for name in ("load_point_velocity",):

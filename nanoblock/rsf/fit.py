@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import math
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -47,9 +47,10 @@ _START_GRID = {
     "dc": np.arange(-3.0, 3.5, 1.0),
     "d0": np.arange(-3.0, 3.5, 1.0),
     "a": (-0.005, 0.0, 0.01),
+    "theta_star": (-1.5, 0.0, 1.5),
     STIFFNESS: (-1.5, 0.0, 1.5),
 }
-"""Shifts of the starting point (scaled space: ln for dc, d0 and K/W; additive for a),
+"""Shifts of the starting point (scaled space: ln for dc, d0, theta* and K/W; additive for a),
 evaluated once each; the best ``_REFINED_STARTS`` are refined."""
 _REFINED_STARTS = 2
 _FIT_MAX_STEPS = 5_000
@@ -144,6 +145,11 @@ class FitResult:
     reference_velocity: float
     model: list[FloatArray] = field(repr=False)
     residuals: list[FloatArray] = field(repr=False)
+    observed: list[FloatArray] = field(repr=False)
+    abscissa: list[FloatArray] = field(repr=False)
+    """What to plot the runs against (load-point displacement, s_ext or velocity)."""
+    abscissa_label: str
+    observed_label: str
     correlation: FloatArray = field(repr=False)
     cost_evaluations: int = 0
 
@@ -177,7 +183,14 @@ class FitResult:
 @dataclass(frozen=True)
 class _Problem:
     law: Law
-    runs: list[RunData]
+    forward: Callable[[Mapping[str, float], float], list[FloatArray]]
+    """Model of each run from all parameters, at an ODE relative tolerance."""
+    observed: list[FloatArray]
+    travel: float
+    """Slip scale of the data [m]: memory lengths are searched within 1e-6 to 1e3 of it."""
+    scale: float
+    """Typical magnitude of the observations: residuals are divided by it so that the
+    optimiser's tolerances mean the same for mu ~ 0.5 and for s ~ 1e-7 m."""
     fixed: dict[str, float]
     free: tuple[str, ...]
     log_scale: tuple[bool, ...]
@@ -204,15 +217,7 @@ class _Problem:
         return self.law.contract(self.law_params(self.unpack(x)), v0)
 
     def models(self, params: Mapping[str, float], rtol: float) -> list[FloatArray]:
-        law_params = self.law_params(params)
-        out = []
-        for run in self.runs:
-            solution = solve_slider(
-                self.law, law_params, run.history, run.time, params[STIFFNESS], rtol=rtol,
-                max_steps=_FIT_MAX_STEPS,
-            )  # fmt: skip
-            out.append(solution.friction + params.get(TREND, 0.0) * run.load_point_displacement)
-        return out
+        return self.forward(params, rtol)
 
     def residuals(self, x: Sequence[float], rtol: float) -> FloatArray:
         """Model minus data; a failed or non-finite forward run gives a flat penalty so the
@@ -220,11 +225,13 @@ class _Problem:
         try:
             with np.errstate(all="ignore"):
                 models = self.models(self.unpack(x), rtol)
-            residual = np.concatenate([m - r.mu for m, r in zip(models, self.runs, strict=True)])
+            residual = np.concatenate(
+                [(m - y) / self.scale for m, y in zip(models, self.observed, strict=True)]
+            )
         except (RuntimeError, ValueError, OverflowError):
             residual = np.full(1, np.nan)
         if not np.all(np.isfinite(residual)):
-            return np.full(sum(r.time.size for r in self.runs), _PENALTY)
+            return np.full(sum(y.size for y in self.observed), _PENALTY)
         return residual
 
 
@@ -260,7 +267,7 @@ def _search_bounds(problem: _Problem, x0: FloatArray) -> tuple[FloatArray, Float
     the load-point travel L of the longest run (a D_c outside cannot be told from the
     data; tinier ones only make the ODE stiff), K/W within 1e4 of its first guess, and
     positive coefficients (a, alpha, ...) above zero."""
-    travel = max(float(np.ptp(run.load_point_displacement)) for run in problem.runs)
+    travel = problem.travel
     lower, upper = np.full(x0.size, -np.inf), np.full(x0.size, np.inf)
     positive = {spec.name for spec in problem.law.parameters if spec.positive}
     for i, name in enumerate(problem.free):
@@ -365,6 +372,192 @@ def _mcmc(
     return np.median(chain, axis=0), np.cov(chain, rowvar=False).reshape(x.size, x.size)
 
 
+@dataclass(frozen=True)
+class _Setup:
+    """What a data kind contributes to a fit: the problem, its start and how to plot it."""
+
+    problem: _Problem
+    start: dict[str, float]
+    reference_velocity: float
+    abscissa: list[FloatArray]
+    abscissa_label: str
+    observed_label: str
+
+
+def _free_names(lw: Law, free: Sequence[str] | None, default: Sequence[str]) -> list[str]:
+    names = list(free if free is not None else default)
+    unknown = set(names) - set(lw.names) - {STIFFNESS, TREND}
+    if unknown:
+        raise ValueError(f"cannot fit {sorted(unknown)}: law {lw.name!r} takes {list(lw.names)}")
+    return names
+
+
+def _problem(
+    lw: Law,
+    forward: Callable[[Mapping[str, float], float], list[FloatArray]],
+    observed: list[FloatArray],
+    travel: float,
+    params: dict[str, float],
+    free_names: list[str],
+) -> _Problem:
+    lw.pack({k: v for k, v in params.items() if k in lw.names})
+    log_scale = {p.name: p.log_scale for p in lw.parameters} | {STIFFNESS: True, TREND: False}
+    scale = float(np.sqrt(np.mean(np.concatenate(observed) ** 2))) or 1.0
+    return _Problem(
+        lw,
+        forward,
+        observed,
+        travel,
+        scale,
+        {k: v for k, v in params.items() if k not in free_names},
+        tuple(free_names),
+        tuple(log_scale[name] for name in free_names),
+    )
+
+
+def _time_series_setup(
+    data: xr.Dataset,
+    lw: Law,
+    stiffness: float | None,
+    trend: bool,
+    free: Sequence[str] | None,
+    initial: Mapping[str, float],
+) -> _Setup:
+    """Velocity steps and slide-hold-slide: the spring-slider from steady sliding."""
+    prepared = prepare_runs(data)
+    v0 = float(prepared[0].history.velocities[0])
+    if not v0 > 0.0:
+        raise DataError("the first sample must be in steady sliding (load-point velocity > 0)")
+    guess = _standard_guess(prepared)
+    params = {**_initial_params(lw, guess, v0), **initial}
+    free_names = _free_names(lw, free, lw.default_free)
+    given = stiffness if stiffness is not None else metadata_stiffness(data)
+    if given is None:
+        free_names.append(STIFFNESS)
+        params.setdefault(STIFFNESS, 2.0 * guess["stiffness"])
+    else:
+        params[STIFFNESS] = float(given)
+    if trend:
+        free_names.append(TREND)
+        params.setdefault(TREND, 0.0)
+
+    def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
+        law_params = {k: v for k, v in values.items() if k in lw.names}
+        out = []
+        for run in prepared:
+            solution = solve_slider(
+                lw, law_params, run.history, run.time, values[STIFFNESS], rtol=rtol,
+                max_steps=_FIT_MAX_STEPS,
+            )  # fmt: skip
+            out.append(solution.friction + values.get(TREND, 0.0) * run.load_point_displacement)
+        return out
+
+    travel = max(float(np.ptp(run.load_point_displacement)) for run in prepared)
+    problem = _problem(lw, forward, [r.mu for r in prepared], travel, params, free_names)
+    return _Setup(
+        problem, params, v0, [r.load_point_displacement for r in prepared],
+        "load-point displacement (m)", "friction coefficient",
+    )  # fmt: skip
+
+
+def _steady_setup(
+    data: xr.Dataset, lw: Law, free: Sequence[str] | None, initial: Mapping[str, float]
+) -> _Setup:
+    """Steady-state tables: mu_ss(V) of the law. Memory lengths do not enter, and for the
+    aging and slip laws only a - b does: a is held (at ``initial`` or 0.01) and b fitted."""
+    velocity = data["load_point_velocity"].values
+    mu = data["mu"].values
+    if np.unique(velocity).size < 2:
+        raise DataError(
+            "a steady-state table needs at least two distinct velocities to fit a rate dependence"
+        )
+    v0 = float(np.exp(np.mean(np.log(velocity))))
+    slope = float(np.polyfit(np.log(velocity / v0), mu, 1)[0])
+    mu0 = float(np.mean(mu))
+    guess = {"mu0": mu0, "a": 0.01, "b": 0.01 - slope, "dc": 1e-5}
+    params = {**_initial_params(lw, guess, v0), **initial}
+    held = {"dc", "d0"} | ({"a"} if lw.name in ("aging", "slip") else set())
+    free_names = _free_names(lw, free, [n for n in lw.default_free if n not in held])
+
+    def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
+        law_params = {k: v for k, v in values.items() if k in lw.names}
+        return [lw.steady_friction(velocity, law_params)]
+
+    problem = _problem(lw, forward, [mu], 1e-5, params, free_names)
+    return _Setup(problem, params, v0, [velocity], "velocity (m/s)", "steady friction coefficient")
+
+
+def _clamped_setup(
+    data: xr.Dataset, lw: Law, free: Sequence[str] | None, initial: Mapping[str, float]
+) -> _Setup:
+    """000's clamped sample: s(t) under the motor extension s_ext(t) for each run (one
+    normal force each), from a relaxed start (000/Eqs. 9-14)."""
+    from nanoblock.rsf.apparatus import Apparatus, ExtensionProtocol, solve_apparatus
+
+    attrs = data.attrs
+    if {"k_s", "c_ext", "c_x"} <= set(attrs):
+        apparatus = Apparatus(attrs["k_s"], attrs["c_ext"], attrs["c_x"])
+    elif {"k_s", "k_f", "k_ext"} <= set(attrs):
+        apparatus = Apparatus.from_stiffnesses(attrs["k_s"], attrs["k_f"], attrs["k_ext"])
+    else:
+        raise DataError(
+            "clamped-sample data need metadata k_s, k_f, k_ext [N/m] (or k_s, c_ext, c_x)"
+        )
+    if not lw.allows_rest:
+        raise ValueError(f"law {lw.name!r} cannot start a clamped sample at rest; use silicon")
+    parts = runs(data) if "run" in data else _split_by_force(data)
+    experiments = []
+    for part in parts:
+        force = (
+            float(part["normal_force"].values[0])
+            if "normal_force" in part
+            else float(attrs.get("normal_force", math.nan))
+        )
+        if not force > 0.0:
+            raise DataError("clamped-sample data need a normal force (column or metadata) > 0 N")
+        time, extension = part["time"].values, part["s_ext"].values
+        if np.any(np.diff(extension) < 0.0):
+            row = int(np.flatnonzero(np.diff(extension) < 0.0)[0]) + 2
+            raise DataError(
+                f"column 's_ext' decreases at data row {row} of a run: 000/Eqs. 9-14 assume "
+                "a growing motor extension"
+            )
+        slope = np.diff(extension) / np.diff(time)
+        bends = np.flatnonzero(np.abs(np.diff(slope)) > 1e-3 * np.max(np.abs(slope))) + 1
+        knots = np.unique(np.concatenate([[0], bends, [time.size - 1]]))
+        protocol = ExtensionProtocol(time[knots], extension[knots])
+        experiments.append((force, protocol, time, part["s"].values, extension))
+    mu_s = max(float(np.max(e[3])) * apparatus.k_s / (2.0 * e[0]) for e in experiments)
+    rate = max(float(np.max(np.diff(p.extensions) / np.diff(p.times))) for _, p, *_ in experiments)
+    v_drive = rate * apparatus.c_ext / apparatus.c_x
+    params = {**_initial_params(lw, {"mu0": mu_s, "a": 1e-3, "b": 0.0, "dc": 1e-6}, v_drive)}
+    params.update(initial)
+    free_names = _free_names(lw, free, lw.default_free)
+
+    def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
+        law_params = {k: v for k, v in values.items() if k in lw.names}
+        return [
+            solve_apparatus(lw, law_params, apparatus, force, protocol, time)["s"].values
+            for force, protocol, time, _, _ in experiments
+        ]
+
+    travel = max(float(np.max(e[4])) for e in experiments)
+    observed = [e[3] for e in experiments]
+    problem = _problem(lw, forward, observed, travel, params, free_names)
+    return _Setup(
+        problem, params, v_drive, [e[4] for e in experiments],
+        "motor extension s_ext (m)", "sample extension s (m)",
+    )  # fmt: skip
+
+
+def _split_by_force(data: xr.Dataset) -> list[xr.Dataset]:
+    """Runs of a clamped-sample file without a ``run`` column: one per normal force."""
+    if "normal_force" not in data:
+        return [data]
+    force = data["normal_force"].values
+    return [data.isel(sample=force == value) for value in dict.fromkeys(force)]
+
+
 def fit_rsf(
     data: xr.Dataset,
     law_name: str = "aging",
@@ -377,46 +570,43 @@ def fit_rsf(
     mcmc_steps: int = 2000,
     seed: int = 0,
 ) -> FitResult:
-    """Fit ``law_name`` to time-series friction data (a :func:`load_measurement` Dataset).
+    """Fit ``law_name`` to measured data (a :func:`load_measurement` Dataset).
 
-    ``stiffness`` is K/W [1/m]; when None it is taken from the metadata or, failing that,
-    fitted. ``trend`` adds a linear friction trend with load-point displacement [1/m].
-    ``free`` overrides the law's default free parameters; ``initial`` the starting values
-    (and fixes any law parameter that is not free). ``method`` is ``"lsq"`` or ``"mcmc"``.
+    Time series (velocity steps, slide-hold-slide) go through the spring-slider:
+    ``stiffness`` is K/W [1/m], taken from the metadata or fitted when None, and ``trend``
+    adds a linear friction trend with load-point displacement [1/m]. Steady-state tables
+    are fitted by the law's mu_ss(V); clamped-sample curves (s against s_ext) by 000's
+    apparatus (use the ``silicon`` or ``two_state`` law). ``free`` overrides the free
+    parameters; ``initial`` the starting values (and fixes any law parameter that is not
+    free). ``method`` is ``"lsq"`` or ``"mcmc"``.
     """
     lw = law(law_name)
     if method not in ("lsq", "mcmc"):
         raise ValueError(f"method {method!r} is not one of 'lsq', 'mcmc'")
-    prepared = prepare_runs(data)
-    v0 = float(prepared[0].history.velocities[0])
-    if not v0 > 0.0:
-        raise DataError("the first sample must be in steady sliding (load-point velocity > 0)")
-    params = _initial_params(lw, _standard_guess(prepared), v0)
-    params.update(initial or {})
-    free_names = list(free if free is not None else lw.default_free)
-    unknown = set(free_names) - set(lw.names) - {STIFFNESS, TREND}
-    if unknown:
-        raise ValueError(f"cannot fit {sorted(unknown)}: law {lw.name!r} takes {list(lw.names)}")
-    given = stiffness if stiffness is not None else metadata_stiffness(data)
-    if given is None:
-        free_names.append(STIFFNESS)
-        params.setdefault(STIFFNESS, 2.0 * _standard_guess(prepared)["stiffness"])
+    kind = data.attrs.get("kind")
+    initial = dict(initial or {})
+    if kind == "time_series":
+        setup = _time_series_setup(data, lw, stiffness, trend, free, initial)
+    elif trend or stiffness is not None:
+        raise ValueError(f"stiffness and trend apply to time series, not to {kind!r} data")
+    elif kind == "steady_state":
+        setup = _steady_setup(data, lw, free, initial)
+    elif kind == "clamped_sample":
+        setup = _clamped_setup(data, lw, free, initial)
     else:
-        params[STIFFNESS] = float(given)
-    if trend:
-        free_names.append(TREND)
-        params.setdefault(TREND, 0.0)
-    lw.pack({k: v for k, v in params.items() if k in lw.names})
-    log_scale = {p.name: p.log_scale for p in lw.parameters} | {STIFFNESS: True, TREND: False}
-    problem = _Problem(
-        lw,
-        prepared,
-        {k: v for k, v in params.items() if k not in free_names},
-        tuple(free_names),
-        tuple(log_scale[name] for name in free_names),
-    )
+        raise DataError(f"unknown data kind {kind!r}; read the file with load_measurement")
+    if sum(y.size for y in setup.problem.observed) <= len(setup.problem.free) + 2:
+        raise DataError(
+            f"{sum(y.size for y in setup.problem.observed)} samples cannot constrain "
+            f"{len(setup.problem.free)} free parameters"
+        )
+    return _solve(lw, setup, method, mcmc_steps, seed)
 
-    x0 = problem.pack(params)
+
+def _solve(lw: Law, setup: _Setup, method: str, mcmc_steps: int, seed: int) -> FitResult:
+    """Multi-start grid, coarse then fine least squares, SVD errors (and optional MCMC)."""
+    problem, v0 = setup.problem, setup.reference_velocity
+    x0 = problem.pack(setup.start)
     evaluations = 0
     starts = [x0]
     for name, shifts in _START_GRID.items():
@@ -466,12 +656,16 @@ def fit_rsf(
         free=problem.free,
         contract=problem.contract(x, v0),
         contract_stderr=_contract_errors(problem, x, covariance, v0),
-        rms_residual=float(np.sqrt(np.mean(residual**2))),
+        rms_residual=float(np.sqrt(np.mean(residual**2))) * problem.scale,
         n_points=n,
         method=method,
         reference_velocity=v0,
         model=models,
-        residuals=[m - r.mu for m, r in zip(models, prepared, strict=True)],
+        residuals=[m - y for m, y in zip(models, problem.observed, strict=True)],
+        observed=problem.observed,
+        abscissa=setup.abscissa,
+        abscissa_label=setup.abscissa_label,
+        observed_label=setup.observed_label,
         correlation=correlation,
         cost_evaluations=evaluations,
     )

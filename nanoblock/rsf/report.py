@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from nanoblock.rsf.fit import STIFFNESS, TREND, FitResult, prepare_runs
+from nanoblock.rsf.fit import STIFFNESS, TREND, FitResult
 from nanoblock.rsf.laws import law
 
 __all__ = ["plot_fit", "residual_summary", "write_fit"]
@@ -19,27 +19,28 @@ _UNITS |= {"aging_rate": "1/s", STIFFNESS: "1/m", TREND: "1/m"}
 
 
 def plot_fit(result: FitResult, data: xr.Dataset, path: str | Path) -> Path:
-    """Friction data and fitted model against load-point displacement, with residuals."""
+    """Data and fitted model of every run against its abscissa, with residuals."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    runs = prepare_runs(data)
     fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(7, 5.5), height_ratios=[3, 1])
-    for i, (run, model, residual) in enumerate(
-        zip(runs, result.model, result.residuals, strict=True)
-    ):
-        x = run.load_point_displacement * 1e6
-        top.plot(x, run.mu, ".", ms=2, color="0.6", label="data" if i == 0 else None)
-        top.plot(x, model, "-", color="C3", lw=1.2, label=f"{result.law} law" if i == 0 else None)
+    runs = zip(result.abscissa, result.observed, result.model, result.residuals, strict=True)
+    for i, (x, observed, model, residual) in enumerate(runs):
+        order = np.argsort(x, kind="stable")
+        top.plot(x, observed, ".", ms=2, color="0.6", label="data" if i == 0 else None)
+        top.plot(x[order], model[order], "-", color="C3", lw=1.2,
+                 label=f"{result.law} law" if i == 0 else None)  # fmt: skip
         bottom.plot(x, residual, ".", ms=2, color="C0")
+    if result.abscissa_label.startswith("velocity"):
+        bottom.set_xscale("log")
     bottom.axhline(0.0, color="k", lw=0.8)
-    top.set_ylabel("friction coefficient")
+    top.set_ylabel(result.observed_label)
     top.legend(frameon=False)
     top.set_title(Path(str(data.attrs.get("source_file", "data"))).name, fontsize=9)
     bottom.set_ylabel("model - data")
-    bottom.set_xlabel("load-point displacement (um)")
+    bottom.set_xlabel(result.abscissa_label)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -76,17 +77,16 @@ def _report(result: FitResult, data: xr.Dataset, figure: str) -> str:
     regime = "velocity weakening (b > a)" if b > a else "velocity strengthening (a >= b)"
     structure = residual_summary(result)
     unidentified = [k for k, e in result.stderr.items() if not math.isfinite(e)]
-    stiffness_note = (
-        "fitted (no stiffness in the metadata)"
-        if STIFFNESS in result.free
-        else "taken from the metadata or the caller"
-    )
+    stiffness_note = ""
+    if STIFFNESS in result.params:
+        source = "fitted" if STIFFNESS in result.free else "from the metadata or the caller"
+        stiffness_note = f"Machine stiffness K/W {result.params[STIFFNESS]:.4g} 1/m, {source}."
     lines = [
         f"# Rate-and-state fit: {law(result.law).summary}",
         "",
         f"Data: `{data.attrs.get('source_file', 'in memory')}`, {result.n_points} samples, "
         f"method `{result.method}`, reference velocity {result.reference_velocity:.4g} m/s. "
-        f"Machine stiffness K/W {result.params[STIFFNESS]:.4g} 1/m, {stiffness_note}.",
+        + stiffness_note,
         "",
         f"**Result.** a - b = {a - b:.3g}: {regime}. RMS residual {result.rms_residual:.3g}; "
         f"lag-1 autocorrelation of the residuals {structure['lag1_autocorrelation']:.2f} "
