@@ -213,19 +213,18 @@ def load_measurement(path: str | Path) -> xr.Dataset:
         run = columns["normal_force"]  # one run per normal force
     if "time" in columns:
         _check_order(columns["time"], run, first_row, path)
-    for name in ("load_point_velocity",):
-        if name in columns:
-            velocity = columns[name]
-            bad = np.flatnonzero(~np.isfinite(velocity) | (velocity < 0.0))
-            if kind == "steady_state":
-                bad = np.flatnonzero(~(velocity > 0.0))
-            if bad.size:
-                row = int(bad[0])
-                need = "> 0 (its log is taken)" if kind == "steady_state" else ">= 0"
-                raise DataError(
-                    f"{path}: column {name!r} must be {need} m/s; data row {row + 1} has "
-                    f"{velocity[row]!r}"
-                )
+    if "load_point_velocity" in columns:
+        velocity = columns["load_point_velocity"]
+        if kind == "steady_state":
+            bad, need = np.flatnonzero(~(velocity > 0.0)), "> 0 (its log is taken)"
+        else:
+            bad, need = np.flatnonzero(~np.isfinite(velocity) | (velocity < 0.0)), ">= 0"
+        if bad.size:
+            row = int(bad[0])
+            raise DataError(
+                f"{path}: column 'load_point_velocity' must be {need} m/s; data row {row + 1} "
+                f"has {velocity[row]!r}"
+            )
     for key in ("stiffness", "stiffness_per_load", "normal_force", "k_s", "k_f", "k_ext"):
         value = metadata.get(key)
         if value is not None and not (math.isfinite(value) and value > 0.0):

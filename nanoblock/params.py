@@ -252,16 +252,20 @@ def from_mapping(data: dict[str, Any], source: str = "scenario") -> Scenario:
         raise ScenarioError(_format_errors(error, source)) from None
 
 
-def load_scenario(path: str | Path) -> Scenario:
-    """Read and validate a TOML scenario file."""
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """The raw mapping of a TOML scenario file; ``ScenarioError`` if missing or invalid."""
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text())
+        return tomllib.loads(path.read_text())
     except FileNotFoundError:
         raise ScenarioError(f"{path}: scenario file not found") from None
     except tomllib.TOMLDecodeError as error:
         raise ScenarioError(f"{path}: not valid TOML ({error})") from None
-    return from_mapping(data, source=str(path))
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a TOML scenario file."""
+    return from_mapping(read_toml(path), source=str(path))
 
 
 def resolve_seed(scenario: Scenario, seed: int | None = None) -> Scenario:

@@ -41,7 +41,7 @@ from tqdm.auto import tqdm
 
 import nanoblock
 from nanoblock.engine import simulate
-from nanoblock.params import Scenario, ScenarioError, from_mapping
+from nanoblock.params import Scenario, from_mapping, read_toml
 from nanoblock.store import COORDINATES, SAMPLES, TIME_CHUNK, RunStore, VariableSpec
 
 MANIFEST = "sweep.json"
@@ -198,12 +198,7 @@ class Sweep:
         Every key and every task's scenario is validated here, before anything runs.
         """
         path = Path(path)
-        try:
-            base = tomllib.loads(path.read_text())
-        except FileNotFoundError:
-            raise ScenarioError(f"{path}: scenario file not found") from None
-        except tomllib.TOMLDecodeError as error:
-            raise ScenarioError(f"{path}: not valid TOML ({error})") from None
+        base = read_toml(path)
         if n_seeds < 1:
             raise SweepError(f"--seeds {n_seeds}: at least one seed is needed")
         axes = tuple(parse_assignment(text) for text in assignments)

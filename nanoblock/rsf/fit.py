@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import json
 import math
-import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -150,8 +149,6 @@ class FitResult:
     """What to plot the runs against (load-point displacement, s_ext or velocity)."""
     abscissa_label: str
     observed_label: str
-    correlation: FloatArray = field(repr=False)
-    cost_evaluations: int = 0
 
     def to_json(self) -> dict:
         """The ``fit.json`` contract: law, params (mu0, a, b, dc and the law's own), stderr,
@@ -210,11 +207,8 @@ class _Problem:
             ]
         )
 
-    def law_params(self, params: Mapping[str, float]) -> dict[str, float]:
-        return {k: v for k, v in params.items() if k in self.law.names}
-
     def contract(self, x: Sequence[float], v0: float) -> dict[str, float | None]:
-        return self.law.contract(self.law_params(self.unpack(x)), v0)
+        return self.law.contract(self.law.own(self.unpack(x)), v0)
 
     def models(self, params: Mapping[str, float], rtol: float) -> list[FloatArray]:
         return self.forward(params, rtol)
@@ -400,7 +394,7 @@ def _problem(
     params: dict[str, float],
     free_names: list[str],
 ) -> _Problem:
-    lw.pack({k: v for k, v in params.items() if k in lw.names})
+    lw.pack(lw.own(params))
     log_scale = {p.name: p.log_scale for p in lw.parameters} | {STIFFNESS: True, TREND: False}
     scale = float(np.sqrt(np.mean(np.concatenate(observed) ** 2))) or 1.0
     return _Problem(
@@ -442,7 +436,7 @@ def _time_series_setup(
         params.setdefault(TREND, 0.0)
 
     def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
-        law_params = {k: v for k, v in values.items() if k in lw.names}
+        law_params = lw.own(values)
         out = []
         for run in prepared:
             solution = solve_slider(
@@ -480,8 +474,7 @@ def _steady_setup(
     free_names = _free_names(lw, free, [n for n in lw.default_free if n not in held])
 
     def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
-        law_params = {k: v for k, v in values.items() if k in lw.names}
-        return [lw.steady_friction(velocity, law_params)]
+        return [lw.steady_friction(velocity, lw.own(values))]
 
     problem = _problem(lw, forward, [mu], 1e-5, params, free_names)
     return _Setup(problem, params, v0, [velocity], "velocity (m/s)", "steady friction coefficient")
@@ -535,7 +528,7 @@ def _clamped_setup(
     free_names = _free_names(lw, free, lw.default_free)
 
     def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
-        law_params = {k: v for k, v in values.items() if k in lw.names}
+        law_params = lw.own(values)
         return [
             solve_apparatus(lw, law_params, apparatus, force, protocol, time)["s"].values
             for force, protocol, time, _, _ in experiments
@@ -607,7 +600,6 @@ def _solve(lw: Law, setup: _Setup, method: str, mcmc_steps: int, seed: int) -> F
     """Multi-start grid, coarse then fine least squares, SVD errors (and optional MCMC)."""
     problem, v0 = setup.problem, setup.reference_velocity
     x0 = problem.pack(setup.start)
-    evaluations = 0
     starts = [x0]
     for name, shifts in _START_GRID.items():
         if name in problem.free:
@@ -618,21 +610,18 @@ def _solve(lw: Law, setup: _Setup, method: str, mcmc_steps: int, seed: int) -> F
     for start in starts:
         r = problem.residuals(start, _COARSE_RTOL)
         costs.append(float(r @ r))
-    evaluations += len(starts)
     coarse = None
     for index in np.argsort(costs)[:_REFINED_STARTS]:
         trial = least_squares(
             problem.residuals, np.clip(starts[index], *bounds), args=(_COARSE_RTOL,),
             method="trf", x_scale="jac", diff_step=1e-4, max_nfev=200, bounds=bounds,
         )  # fmt: skip
-        evaluations += trial.nfev
         if coarse is None or trial.cost < coarse.cost:
             coarse = trial
     fine = least_squares(
         problem.residuals, coarse.x, args=(1e-10,), method="trf", x_scale="jac",
         diff_step=_DIFF_STEP, max_nfev=100, bounds=bounds,
     )  # fmt: skip
-    evaluations += coarse.nfev + fine.nfev
     x = fine.x
     residual = fine.fun
     n = residual.size
@@ -644,10 +633,6 @@ def _solve(lw: Law, setup: _Setup, method: str, mcmc_steps: int, seed: int) -> F
         residual = problem.residuals(x, 1e-10)
     best_params = problem.unpack(x)
     models = problem.models(best_params, 1e-10)
-    diag = np.sqrt(np.where(np.isfinite(np.diag(covariance)), np.diag(covariance), np.nan))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        correlation = covariance / np.outer(diag, diag)
     errors = _natural_errors(problem, x, covariance)
     return FitResult(
         law=lw.name,
@@ -666,6 +651,4 @@ def _solve(lw: Law, setup: _Setup, method: str, mcmc_steps: int, seed: int) -> F
         abscissa=setup.abscissa,
         abscissa_label=setup.abscissa_label,
         observed_label=setup.observed_label,
-        correlation=correlation,
-        cost_evaluations=evaluations,
     )

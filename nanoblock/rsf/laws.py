@@ -55,6 +55,10 @@ class Law:
     def names(self) -> tuple[str, ...]:
         return tuple(p.name for p in self.parameters)
 
+    def own(self, params: Mapping[str, float]) -> dict[str, float]:
+        """The entries of ``params`` that are this law's parameters."""
+        return {k: v for k, v in params.items() if k in self.names}
+
     def pack(self, params: Mapping[str, float]) -> tuple[float, ...]:
         """Parameter tuple in the order of ``names``; defaults fill what is missing.
 
@@ -269,14 +273,6 @@ class SiliconLaw(Law):
     def static_friction(self, params: Mapping[str, float]) -> float:
         """mu_s = B ln(1 + 1/theta*) (000/Eq. 8)."""
         return params["b"] * math.log1p(1.0 / params["theta_star"])
-
-    def contract(self, params, velocity):
-        return {
-            "mu0": self.reference_friction(params, velocity),
-            "a": params["a"],
-            "b": params["b"],
-            "dc": params["dc"],
-        }
 
 
 @dataclass(frozen=True)
