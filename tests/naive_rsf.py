@@ -1,4 +1,5 @@
-"""Naive reference spring-slider for the aging and slip laws, written the usual way.
+"""Naive reference spring-slider for the aging, slip, cutoff and saturation laws, written
+the usual way.
 
 As common RSF tools do it: state (mu, theta) in natural variables, the load-point
 velocity looked up inside the right-hand side, v recovered from the friction law, and
@@ -38,18 +39,27 @@ def naive_slider(
         i = int(np.searchsorted(ends, t, side="left"))
         return velocities[min(i, len(velocities) - 1)]
 
+    v_theta = params.get("v_theta", 0.0)  # cutoff law: healing rate v / (v + v_theta)
+    tau = params.get("tau_m", 0.0)  # saturation law: area ~ ln(theta + tau_m)
+
+    def state_friction(theta: float) -> float:
+        if law == "saturation":
+            return b * math.log((theta + tau) / (dc / v0 + tau))
+        return b * math.log(v0 * theta / dc)
+
     def rhs(t: float, y: np.ndarray) -> list[float]:
         mu, theta = y
         theta = max(theta, 1e-300)  # Newton iterates of Radau may probe theta <= 0
-        v = v0 * math.exp(min((mu - mu0 - b * math.log(v0 * theta / dc)) / a, 700.0))
-        if law == "aging":
-            dtheta = 1.0 - v * theta / dc
-        else:
+        v = v0 * math.exp(min((mu - mu0 - state_friction(theta)) / a, 700.0))
+        if law == "slip":
             dtheta = -v * theta / dc * math.log(v * theta / dc)
+        else:
+            dtheta = v / (v + v_theta) - v * theta / dc
         return [stiffness * (load_velocity(t) - v), dtheta]
 
     v_start = velocities[0]
-    y0 = [mu0 + (a - b) * math.log(v_start / v0), dc / v_start]
+    theta_start = dc / (v_start + v_theta)
+    y0 = [mu0 + a * math.log(v_start / v0) + state_friction(theta_start), theta_start]
     if solver == "odeint":
         return odeint(rhs, y0, times, rtol=rtol, atol=atol, tfirst=True, mxstep=10**6)[:, 0]
     mu = np.empty(times.size)

@@ -83,3 +83,21 @@ def write_csv(dataset: xr.Dataset, path: Path, metadata: dict[str, object]) -> P
     lines += [",".join(f"{x:.12g}" for x in row) for row in table]
     path.write_text("\n".join(lines) + "\n")
     return path
+
+
+def combine(records: list[xr.Dataset], forces: list[float]) -> xr.Dataset:
+    """Several records as one multi-run Dataset with ``run`` and ``normal_force`` columns."""
+    parts = []
+    for index, (part, force) in enumerate(zip(records, forces, strict=True)):
+        size = part.sizes["sample"]
+        extra = {
+            "run": ("sample", np.full(size, float(index)), _attrs("run")),
+            "normal_force": ("sample", np.full(size, float(force)), _attrs("normal_force")),
+        }
+        parts.append(part.assign(extra))
+    return xr.concat(parts, dim="sample", combine_attrs="override")
+
+
+def _attrs(name: str) -> dict[str, str]:
+    units, long_name = COLUMNS[name]
+    return {"units": units, "long_name": long_name}

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from nanoblock.measured import DataError, load_measurement
-from nanoblock.rsf.fit import STIFFNESS, TREND, fit_rsf
+from nanoblock.rsf.fit import LOAD_EXPONENT, STIFFNESS, TREND, fit_rsf
 from nanoblock.rsf.laws import law
 from nanoblock.rsf.report import write_fit
-from tests.rsf_synthetic import NOISE, random_parameters, record
+from tests.rsf_synthetic import NOISE, combine, random_parameters, record
 from tests.tolerances import RECOVERY_CASES, RECOVERY_MIN_COVERAGE, Z_RECOVERY
 
 CONTRACT = ("mu0", "a", "b", "dc")
@@ -65,6 +65,43 @@ def test_machine_stiffness_and_slip_trend_are_fitted_when_unknown() -> None:
     assert STIFFNESS in result.free and TREND in result.free
     for key, value in ((STIFFNESS, k), (TREND, trend), ("dc", truth["dc"]), ("b", truth["b"])):
         assert abs(result.params[key] - value) < Z_RECOVERY * result.stderr[key], key
+
+
+def test_load_dependent_memory_length_is_recovered() -> None:
+    """Runs at 100, 200 and 400 N with D_c ~ W^0.7 (000/Fig. 3 caption): the exponent is
+    recovered within 3 standard errors and a single D_c fits worse than the noise."""
+    rng = np.random.default_rng(17)
+    truth = {"mu0": 0.6, "a": 0.01, "b": 0.014, "dc": 1e-5, "v0": 1e-6}
+    forces, exponent, k = [100.0, 200.0, 400.0], 0.7, 3000.0
+    w_ref = float(np.exp(np.mean(np.log(forces))))
+    parts = [
+        record("aging", {**truth, "dc": truth["dc"] * (w / w_ref) ** exponent},
+               "velocity_step", k, rng, n_samples=400)
+        for w in forces
+    ]  # fmt: skip
+    # every run on the same time axis: the protocol of the reference D_c
+    data = combine(parts, forces)
+    extended = fit_rsf(data, "aging", stiffness=k, load_exponent=True)
+    assert (
+        abs(extended.params[LOAD_EXPONENT] - exponent) < Z_RECOVERY * extended.stderr[LOAD_EXPONENT]
+    )
+    assert extended.rms_residual == pytest.approx(NOISE, rel=0.2)
+    assert fit_rsf(data, "aging", stiffness=k).rms_residual > 1.5 * NOISE
+
+
+def test_held_out_samples_do_not_enter_the_fit() -> None:
+    """The tail of a record is corrupted and held out: the fit still recovers the
+    truth, and the model predicts the held-out samples (their residual is the offset)."""
+    rng = np.random.default_rng(19)
+    truth = {"mu0": 0.6, "a": 0.01, "b": 0.013, "dc": 2e-5, "v0": 1e-6}
+    data = record("aging", truth, "velocity_step", 2500.0, rng, n_samples=600)
+    held = np.arange(600) >= 520  # from 11 D_c after the step on
+    data["mu"].values[held] += 0.05
+    result = fit_rsf(data, "aging", stiffness=2500.0, holdout=[held])
+    assert result.n_points == 520
+    for key in ("a", "b", "dc"):
+        assert abs(result.params[key] - truth[key]) < Z_RECOVERY * result.stderr[key], key
+    assert np.mean(result.residuals[0][held]) == pytest.approx(-0.05, abs=5 * NOISE)
 
 
 def test_dc_is_reported_unidentifiable_on_a_very_soft_machine() -> None:

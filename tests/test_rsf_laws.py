@@ -17,6 +17,8 @@ STANDARD = {"mu0": 0.6, "a": 0.01, "b": 0.015, "dc": 1e-5, "v0": 1e-6}
 EXAMPLES = {
     "aging": STANDARD,
     "slip": STANDARD,
+    "cutoff": {**STANDARD, "v_theta": 3e-6},
+    "saturation": {**STANDARD, "tau_m": 2.0},
     "tabor": {"mu0": 0.6, "alpha": 0.02, "m": 0.03, "d0": 1e-5, "v0": 1e-6},
     "silicon": {"a": 7.5e-4, "b": 0.1, "dc": 1.33e-6, "theta_star": 1.15, "v_theta": 3e-8},
     "two_state": {
@@ -82,6 +84,18 @@ def test_steady_friction_closed_forms() -> None:
         law("tabor").steady_friction(v, t),
         t["mu0"] * (1 - t["m"] * ln) * (1 + t["alpha"] * ln),
     )
+    c = EXAMPLES["cutoff"]
+    np.testing.assert_allclose(
+        law("cutoff").steady_friction(v, c),
+        s["mu0"] + s["a"] * np.log(v / s["v0"]) - s["b"] * np.log((v + c["v_theta"]) / s["v0"]),
+    )
+    sat, tau = EXAMPLES["saturation"], EXAMPLES["saturation"]["tau_m"]
+    np.testing.assert_allclose(
+        law("saturation").steady_friction(v, sat),
+        s["mu0"]
+        + s["a"] * np.log(v / s["v0"])
+        + s["b"] * np.log((s["dc"] / v + tau) / (s["dc"] / s["v0"] + tau)),
+    )
     si = EXAMPLES["silicon"]
     theta = 1 / (1 + v / si["v_theta"])
     np.testing.assert_allclose(
@@ -90,7 +104,7 @@ def test_steady_friction_closed_forms() -> None:
     )
 
 
-@pytest.mark.parametrize("name", ["aging", "slip"])
+@pytest.mark.parametrize("name", ["aging", "slip", "cutoff", "saturation"])
 @pytest.mark.parametrize(
     "segments",
     [[(1e-6, 20.0), (1e-5, 30.0)], [(1e-5, 5.0), (0.0, 100.0), (1e-5, 20.0)]],
@@ -101,8 +115,8 @@ def test_spring_slider_matches_naive_reference(name: str, segments: list) -> Non
     times = np.linspace(0.0, sum(d for _, d in segments), 3001)
     k = 2e3
     history = LoadPointHistory.from_segments(segments)
-    ours = solve_slider(law(name), STANDARD, history, times, k).friction
-    reference = naive_slider(name, STANDARD, segments, times, k)
+    ours = solve_slider(law(name), EXAMPLES[name], history, times, k).friction
+    reference = naive_slider(name, EXAMPLES[name], segments, times, k)
     np.testing.assert_allclose(ours, reference, rtol=0, atol=NAIVE_RSF_ATOL)
 
 

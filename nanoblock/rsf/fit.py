@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +37,8 @@ STIFFNESS = "stiffness"
 """Name of the fitted machine stiffness per normal load K/W [1/m]."""
 TREND = "slip_trend"
 """Name of the linear trend of friction with load-point displacement [1/m]."""
+LOAD_EXPONENT = "dc_load_exponent"
+"""Name of the exponent n of a load-dependent memory length D_c (W / W_ref)^n."""
 
 _COARSE_RTOL = 1e-7
 _SINGULAR = 1e-9
@@ -47,6 +49,8 @@ _START_GRID = {
     "d0": np.arange(-3.0, 3.5, 1.0),
     "a": (-0.005, 0.0, 0.01),
     "theta_star": (-1.5, 0.0, 1.5),
+    "v_theta": (-2.5, 0.0, 2.5),
+    "tau_m": (-2.5, 0.0, 2.5),
     STIFFNESS: (-1.5, 0.0, 1.5),
 }
 """Shifts of the starting point (scaled space: ln for dc, d0, theta* and K/W; additive for a),
@@ -65,6 +69,8 @@ class RunData:
     history: LoadPointHistory
     load_point_displacement: FloatArray
     """Measured from the run's first sample [m]."""
+    normal_force: float
+    """The run's normal force W [N] (NaN when the data do not give it)."""
 
 
 def _history_from_displacement(time: FloatArray, displacement: FloatArray) -> LoadPointHistory:
@@ -110,7 +116,14 @@ def prepare_runs(data: xr.Dataset) -> list[RunData]:
         else:
             displacement = run["load_point_displacement"].values
             history = _history_from_displacement(time, displacement)
-        prepared.append(RunData(time, run["mu"].values, history, displacement - displacement[0]))
+        force = (
+            float(np.mean(run["normal_force"].values))
+            if "normal_force" in run
+            else float(data.attrs.get("normal_force", math.nan))
+        )
+        prepared.append(
+            RunData(time, run["mu"].values, history, displacement - displacement[0], force)
+        )
     return prepared
 
 
@@ -191,6 +204,8 @@ class _Problem:
     fixed: dict[str, float]
     free: tuple[str, ...]
     log_scale: tuple[bool, ...]
+    fitted: NDArray[np.bool_] | None = None
+    """Which samples (all runs concatenated) the fit sees; the others are held out."""
 
     def unpack(self, x: Sequence[float]) -> dict[str, float]:
         values = {
@@ -224,9 +239,18 @@ class _Problem:
             )
         except (RuntimeError, ValueError, OverflowError):
             residual = np.full(1, np.nan)
+        if self.fitted is not None and residual.size == self.fitted.size:
+            residual = residual[self.fitted]
         if not np.all(np.isfinite(residual)):
-            return np.full(sum(y.size for y in self.observed), _PENALTY)
+            return np.full(self.n_fitted, _PENALTY)
         return residual
+
+    @property
+    def n_fitted(self) -> int:
+        """Number of samples the fit sees."""
+        if self.fitted is not None:
+            return int(self.fitted.sum())
+        return sum(y.size for y in self.observed)
 
 
 def _standard_guess(runs_: list[RunData]) -> dict[str, float]:
@@ -278,6 +302,10 @@ def _initial_params(lw: Law, guess: Mapping[str, float], v0: float) -> dict[str,
     mu0, a, b, dc = guess["mu0"], guess["a"], guess["b"], guess["dc"]
     if lw.name in ("aging", "slip"):
         return {"mu0": mu0, "a": a, "b": b, "dc": dc, "v0": v0}
+    if lw.name == "cutoff":
+        return {"mu0": mu0, "a": a, "b": b, "dc": dc, "v_theta": v0, "v0": v0}
+    if lw.name == "saturation":
+        return {"mu0": mu0, "a": a, "b": b, "dc": dc, "tau_m": dc / v0, "v0": v0}
     if lw.name == "tabor":
         return {"mu0": mu0, "alpha": a / mu0, "m": b / mu0, "d0": dc, "v0": v0}
     theta_star = 1.0
@@ -380,7 +408,7 @@ class _Setup:
 
 def _free_names(lw: Law, free: Sequence[str] | None, default: Sequence[str]) -> list[str]:
     names = list(free if free is not None else default)
-    unknown = set(names) - set(lw.names) - {STIFFNESS, TREND}
+    unknown = set(names) - set(lw.names) - {STIFFNESS, TREND, LOAD_EXPONENT}
     if unknown:
         raise ValueError(f"cannot fit {sorted(unknown)}: law {lw.name!r} takes {list(lw.names)}")
     return names
@@ -395,7 +423,11 @@ def _problem(
     free_names: list[str],
 ) -> _Problem:
     lw.pack(lw.own(params))
-    log_scale = {p.name: p.log_scale for p in lw.parameters} | {STIFFNESS: True, TREND: False}
+    log_scale = {p.name: p.log_scale for p in lw.parameters} | {
+        STIFFNESS: True,
+        TREND: False,
+        LOAD_EXPONENT: False,
+    }
     scale = float(np.sqrt(np.mean(np.concatenate(observed) ** 2))) or 1.0
     return _Problem(
         lw,
@@ -409,11 +441,37 @@ def _problem(
     )
 
 
+def _reference_load(forces: Sequence[float], wanted: bool) -> float:
+    """W_ref [N] of a load-dependent memory length: the geometric mean of the runs' loads
+    (1 when not wanted); ``DataError`` unless at least two distinct loads are known."""
+    if not wanted:
+        return 1.0
+    known = np.unique([f for f in forces if math.isfinite(f) and f > 0.0])
+    if known.size < 2 or len(known) != len(np.unique(forces)):
+        raise DataError(
+            "a load-dependent memory length needs runs at two or more normal forces, each "
+            "with its normal force (column 'normal_force' or a run per load)"
+        )
+    return float(np.exp(np.mean(np.log(known))))
+
+
+def _law_params(lw: Law, values: Mapping[str, float], force: float, w_ref: float) -> dict:
+    """The law's parameters for one run: D_c (or D0) times (W / W_ref)^n when the fit has a
+    load exponent n (000/Fig. 3 caption)."""
+    params = lw.own(values)
+    exponent = values.get(LOAD_EXPONENT, 0.0)
+    if exponent:
+        key = "dc" if "dc" in params else "d0"
+        params[key] *= (force / w_ref) ** exponent
+    return params
+
+
 def _time_series_setup(
     data: xr.Dataset,
     lw: Law,
     stiffness: float | None,
     trend: bool,
+    load_exponent: bool,
     free: Sequence[str] | None,
     initial: Mapping[str, float],
 ) -> _Setup:
@@ -434,11 +492,15 @@ def _time_series_setup(
     if trend:
         free_names.append(TREND)
         params.setdefault(TREND, 0.0)
+    w_ref = _reference_load([run.normal_force for run in prepared], load_exponent)
+    if load_exponent:
+        free_names.append(LOAD_EXPONENT)
+        params.setdefault(LOAD_EXPONENT, 0.0)
 
     def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
-        law_params = lw.own(values)
         out = []
         for run in prepared:
+            law_params = _law_params(lw, values, run.normal_force, w_ref)
             solution = solve_slider(
                 lw, law_params, run.history, run.time, values[STIFFNESS], rtol=rtol,
                 max_steps=_FIT_MAX_STEPS,
@@ -481,7 +543,11 @@ def _steady_setup(
 
 
 def _clamped_setup(
-    data: xr.Dataset, lw: Law, free: Sequence[str] | None, initial: Mapping[str, float]
+    data: xr.Dataset,
+    lw: Law,
+    load_exponent: bool,
+    free: Sequence[str] | None,
+    initial: Mapping[str, float],
 ) -> _Setup:
     """000's clamped sample: s(t) under the motor extension s_ext(t) for each run (one
     normal force each), from a relaxed start (000/Eqs. 9-14)."""
@@ -526,11 +592,16 @@ def _clamped_setup(
     params = {**_initial_params(lw, {"mu0": mu_s, "a": 1e-3, "b": 0.0, "dc": 1e-6}, v_drive)}
     params.update(initial)
     free_names = _free_names(lw, free, lw.default_free)
+    w_ref = _reference_load([e[0] for e in experiments], load_exponent)
+    if load_exponent:
+        free_names.append(LOAD_EXPONENT)
+        params.setdefault(LOAD_EXPONENT, 0.0)
 
     def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
-        law_params = lw.own(values)
         return [
-            solve_apparatus(lw, law_params, apparatus, force, protocol, time)["s"].values
+            solve_apparatus(
+                lw, _law_params(lw, values, force, w_ref), apparatus, force, protocol, time
+            )["s"].values
             for force, protocol, time, _, _ in experiments
         ]
 
@@ -557,8 +628,11 @@ def fit_rsf(
     *,
     stiffness: float | None = None,
     trend: bool = False,
+    load_exponent: bool = False,
     free: Sequence[str] | None = None,
     initial: Mapping[str, float] | None = None,
+    holdout: Sequence[NDArray[np.bool_]] | None = None,
+    search: bool = True,
     method: str = "lsq",
     mcmc_steps: int = 2000,
     seed: int = 0,
@@ -569,9 +643,13 @@ def fit_rsf(
     ``stiffness`` is K/W [1/m], taken from the metadata or fitted when None, and ``trend``
     adds a linear friction trend with load-point displacement [1/m]. Steady-state tables
     are fitted by the law's mu_ss(V); clamped-sample curves (s against s_ext) by 000's
-    apparatus (use the ``silicon`` or ``two_state`` law). ``free`` overrides the free
-    parameters; ``initial`` the starting values (and fixes any law parameter that is not
-    free). ``method`` is ``"lsq"`` or ``"mcmc"``.
+    apparatus (use the ``silicon`` or ``two_state`` law). ``load_exponent`` fits
+    D_c (W / W_ref)^n across runs at several normal forces (time series and clamped
+    samples). ``free`` overrides the free parameters; ``initial`` the starting values (and
+    fixes any law parameter that is not free). ``holdout`` (one boolean array per run,
+    True = held out) hides samples from the fit; the result's model and residuals still
+    cover every sample. ``search=False`` starts only from ``initial`` (a warm start)
+    instead of the multi-start grid. ``method`` is ``"lsq"`` or ``"mcmc"``.
     """
     lw = law(law_name)
     if method not in ("lsq", "mcmc"):
@@ -579,30 +657,39 @@ def fit_rsf(
     kind = data.attrs.get("kind")
     initial = dict(initial or {})
     if kind == "time_series":
-        setup = _time_series_setup(data, lw, stiffness, trend, free, initial)
+        setup = _time_series_setup(data, lw, stiffness, trend, load_exponent, free, initial)
     elif trend or stiffness is not None:
         raise ValueError(f"stiffness and trend apply to time series, not to {kind!r} data")
     elif kind == "steady_state":
+        if load_exponent:
+            raise ValueError("memory lengths do not enter steady-state tables")
         setup = _steady_setup(data, lw, free, initial)
     elif kind == "clamped_sample":
-        setup = _clamped_setup(data, lw, free, initial)
+        setup = _clamped_setup(data, lw, load_exponent, free, initial)
     else:
         raise DataError(f"unknown data kind {kind!r}; read the file with load_measurement")
-    if sum(y.size for y in setup.problem.observed) <= len(setup.problem.free) + 2:
+    if holdout is not None:
+        fitted = ~np.concatenate([np.asarray(h, dtype=bool) for h in holdout])
+        if fitted.size != sum(y.size for y in setup.problem.observed):
+            raise ValueError("holdout needs one boolean array per run, one entry per sample")
+        setup = replace(setup, problem=replace(setup.problem, fitted=fitted))
+    if setup.problem.n_fitted <= len(setup.problem.free) + 2:
         raise DataError(
-            f"{sum(y.size for y in setup.problem.observed)} samples cannot constrain "
+            f"{setup.problem.n_fitted} samples cannot constrain "
             f"{len(setup.problem.free)} free parameters"
         )
-    return _solve(lw, setup, method, mcmc_steps, seed)
+    return _solve(lw, setup, method, mcmc_steps, seed, search)
 
 
-def _solve(lw: Law, setup: _Setup, method: str, mcmc_steps: int, seed: int) -> FitResult:
+def _solve(
+    lw: Law, setup: _Setup, method: str, mcmc_steps: int, seed: int, search: bool
+) -> FitResult:
     """Multi-start grid, coarse then fine least squares, SVD errors (and optional MCMC)."""
     problem, v0 = setup.problem, setup.reference_velocity
     x0 = problem.pack(setup.start)
     starts = [x0]
     for name, shifts in _START_GRID.items():
-        if name in problem.free:
+        if search and name in problem.free:
             step = np.eye(x0.size)[problem.free.index(name)]
             starts = [s + shift * step for s in starts for shift in shifts]
     bounds = _search_bounds(problem, x0)

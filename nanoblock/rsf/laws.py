@@ -177,7 +177,7 @@ class _LogVelocityLaw(Law):
         return p[-1] * np.exp(w)
 
     def friction(self, w, s, p):
-        mu0, a, b, dc, v0 = p
+        mu0, a, b, dc, v0 = p[0], p[1], p[2], p[3], p[-1]
         return mu0 + a * w + b * (s[0] + math.log(v0 / dc))
 
     def gradient(self, w, s, p):
@@ -203,6 +203,41 @@ class SlipLaw(_LogVelocityLaw):
         if v <= 0.0:  # v ln v -> 0: no evolution at rest (v underflows after long holds)
             return (0.0,)
         return (-(v / p[3]) * (math.log(v / p[3]) + s[0]),)
+
+
+@dataclass(frozen=True)
+class CutoffLaw(_LogVelocityLaw):
+    """Aging law with 000/Eq. 7's state cutoff velocity v_theta, in dimensional form.
+
+    With theta_D = (Dc / v_theta) theta_000, 000/Eq. 7 reads
+    theta' = v / (v + v_theta) - v theta / Dc: the aging law for v >> v_theta, no healing
+    at rest, and a steady state theta = Dc / (v + v_theta) whose weakening flattens below
+    v_theta. Parameters (mu0, a, b, dc, v_theta, v0).
+    """
+
+    def state_rate(self, v, s, p):
+        return (v / (v + p[4]) * math.exp(-s[0]) - v / p[3],)
+
+    def steady_state(self, v, p):
+        return (np.log(p[3] / (np.asarray(v, dtype=float) + p[4])),)
+
+
+@dataclass(frozen=True)
+class SaturationLaw(AgingLaw):
+    """Aging law with a finite creep onset time tau_m (001/Eq. 5 before linearisation).
+
+    The area of a contact of age theta grows as ln(1 + theta / tau_m), so
+    mu = mu0 + a ln(v/v0) + b ln((theta + tau_m) / (Dc/v0 + tau_m)): the state effect
+    saturates above V_sat = Dc / tau_m (001/Eq. 8). Parameters (mu0, a, b, dc, tau_m, v0).
+    """
+
+    def friction(self, w, s, p):
+        mu0, a, b, dc, tau, v0 = p
+        return mu0 + a * w + b * math.log((math.exp(s[0]) + tau) / (dc / v0 + tau))
+
+    def gradient(self, w, s, p):
+        theta = math.exp(s[0])
+        return p[1], (p[2] * theta / (theta + p[4]),)
 
 
 @dataclass(frozen=True)
@@ -301,12 +336,13 @@ class TwoStateLaw(SiliconLaw):
         return ((1.0 + phi) / (1.0 + speed / p[4]), phi)
 
 
+_V_THETA = Parameter("v_theta", "m/s", "state cutoff velocity v_theta", log_scale=True)
 _SILICON_PARAMETERS = (
     Parameter("a", "1", "direct-effect coefficient A"),
     Parameter("b", "1", "state coefficient B"),
     _DC,
     Parameter("theta_star", "1", "state scale theta*", log_scale=True),
-    Parameter("v_theta", "m/s", "state cutoff velocity v_theta", log_scale=True),
+    _V_THETA,
 )
 _V_STAR = Parameter("v_star", "m/s", "velocity scale v* (held fixed)", log_scale=True)
 
@@ -326,6 +362,27 @@ LAWS: dict[str, Law] = {
             (_MU0, _A, _B, _DC, _V0),
             ("ln_theta",),
             ("mu0", "a", "b", "dc"),
+        ),
+        CutoffLaw(
+            "cutoff",
+            "aging law with 000/Eq. 7's state cutoff velocity v_theta",
+            (_MU0, _A, _B, _DC, _V_THETA, _V0),
+            ("ln_theta",),
+            ("mu0", "a", "b", "dc", "v_theta"),
+        ),
+        SaturationLaw(
+            "saturation",
+            "aging law with a finite creep onset time tau_m (001/Eqs. 5, 8)",
+            (
+                _MU0,
+                _A,
+                _B,
+                _DC,
+                Parameter("tau_m", "s", "creep onset time tau_m", log_scale=True),
+                _V0,
+            ),
+            ("ln_theta",),
+            ("mu0", "a", "b", "dc", "tau_m"),
         ),
         TaborLaw(
             "tabor",
