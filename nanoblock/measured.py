@@ -13,7 +13,11 @@ columns and recorded in ``attrs["kind"]``:
   [m/s] (optionally ``temperature`` [K], ``normal_force`` [N]).
 
 Optional per-row columns: ``slip`` [m], ``normal_force`` [N], ``temperature`` [K] and
-``run`` (an id grouping the rows of one experiment). The result has one dimension,
+``run`` (an id grouping the rows of one experiment).
+
+A simulator run store (the zarr directory of ``nanoblock run``, recognised by its
+``scenario`` attribute) reads as a ``time_series`` too (:func:`from_simulation`), so
+simulated and measured data go through one fitting path. The result has one dimension,
 ``sample``; every variable carries ``units`` and ``long_name``. Time must increase within
 a run (in a clamped-sample file without ``run``, each normal force is a run). Rows with a missing
 (NaN) required value are dropped with a warning that counts them; anything else that is
@@ -30,7 +34,14 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-__all__ = ["COLUMNS", "DataError", "DroppedRowsWarning", "load_measurement", "runs"]
+__all__ = [
+    "COLUMNS",
+    "DataError",
+    "DroppedRowsWarning",
+    "from_simulation",
+    "load_measurement",
+    "runs",
+]
 
 
 class DataError(ValueError):
@@ -116,11 +127,58 @@ def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object], int
     return {name: table[:, i] for i, name in enumerate(header)}, metadata, n_meta + 2
 
 
+def from_simulation(run: xr.Dataset) -> xr.Dataset:
+    """A simulated run (``nanoblock.engine.simulate`` output, or its store opened) in the
+    layout of a measured time series, without the validation of :func:`load_measurement`.
+
+    Dim ``sample``; ``time`` [s], ``mu`` (the ``friction_coefficient``),
+    ``load_point_displacement`` [m], ``load_point_velocity`` [m/s] (exact, from the
+    scenario's protocol), ``slip`` [m] (the slider displacement); metadata from the
+    scenario: ``stiffness_per_load`` K/W [1/m] (``inf`` for a rigid drive),
+    ``normal_force`` W [N], ``temperature`` T [K], and the scenario JSON itself.
+    """
+    from nanoblock.engine import protocol_table
+    from nanoblock.params import Scenario
+
+    scenario = Scenario.from_json(run.attrs["scenario"])
+    time = np.asarray(run["time"].values, dtype=float)
+    starts, velocities, _ = protocol_table(scenario)
+    segment = np.searchsorted(starts, time, side="right") - 1
+    columns = {
+        "time": time,
+        "mu": run["friction_coefficient"].values,
+        "load_point_displacement": run["load_point_displacement"].values,
+        "load_point_velocity": velocities[np.clip(segment, 0, velocities.size - 1)],
+        "slip": run["slider_displacement"].values,
+    }
+    interface = scenario.interface
+    attrs = {
+        "kind": "time_series",
+        "apparatus": "spring_slider",
+        "stiffness_per_load": scenario.loading.stiffness / interface.normal_force,
+        "normal_force": interface.normal_force,
+        "temperature": scenario.joint.temperature,
+        "scenario": run.attrs["scenario"],
+        "source": "nanoblock simulation",
+    }
+    data_vars = {
+        name: ("sample", np.asarray(values, dtype=float), _attrs(name))
+        for name, values in columns.items()
+    }
+    return xr.Dataset(data_vars, attrs=attrs)
+
+
+def _attrs(name: str) -> dict[str, str]:
+    return {"units": COLUMNS[name][0], "long_name": COLUMNS[name][1]}
+
+
 def _read_dataset(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object], int]:
     if path.suffix == ".nc":
         dataset = xr.open_dataset(path)
     else:
-        dataset = xr.open_zarr(path)
+        dataset = xr.open_zarr(path, consolidated=False)
+        if "scenario" in dataset.attrs:
+            dataset = from_simulation(dataset)
     columns = {}
     for name in dataset.variables:
         values = dataset[name].values
@@ -227,13 +285,14 @@ def load_measurement(path: str | Path) -> xr.Dataset:
             )
     for key in ("stiffness", "stiffness_per_load", "normal_force", "k_s", "k_f", "k_ext"):
         value = metadata.get(key)
-        if value is not None and not (math.isfinite(value) and value > 0.0):
-            raise DataError(f"{path}: metadata {key!r} = {value!r} must be > 0")
+        stiffness = key in ("stiffness", "stiffness_per_load")
+        if value is None or (stiffness and value == math.inf):  # inf: a rigid drive
+            continue
+        if not (math.isfinite(value) and value > 0.0):
+            allowed = "> 0 (or inf, a rigid drive)" if stiffness else "> 0"
+            raise DataError(f"{path}: metadata {key!r} = {value!r} must be {allowed}")
 
-    data_vars = {
-        name: ("sample", values, {"units": COLUMNS[name][0], "long_name": COLUMNS[name][1]})
-        for name, values in columns.items()
-    }
+    data_vars = {name: ("sample", values, _attrs(name)) for name, values in columns.items()}
     attrs = {**metadata, "kind": kind, "source_file": str(path)}
     attrs.setdefault("apparatus", "spring_slider")
     return xr.Dataset(data_vars, attrs=attrs)

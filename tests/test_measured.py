@@ -130,3 +130,52 @@ def test_every_laboratory_file_reads_and_fits() -> None:
         result = fit_rsf(load_measurement(path), "aging", trend=True)
         assert 0.001 < result.contract["a"] < 0.05, path.name
         assert np.isfinite(result.contract_stderr["dc"]), path.name
+
+
+def test_simulator_store_reads_as_a_time_series_and_fits(tmp_path, make_scenario) -> None:
+    """A run store of a 1 -> 10 um/s step (reference mean-field joint, 400 contacts x 1
+    block, D0 = 0.1 um, m = 0.05) reads like a measured step and ``nanoblock fit`` fits it
+    through the unchanged path: a direct effect and a positive state effect with a
+    memory length of order D0."""
+    from nanoblock.engine import simulate
+
+    d0 = 1e-7
+    scenario = make_scenario(
+        interface={
+            "n_contacts": 400,
+            "blocks_per_contact": 1,
+            "memory_length": d0,
+            "aging_m": 0.05,
+            "aging_time": 1e-4,
+        },
+        loading={
+            "stiffness": 1e7,
+            "steps": [
+                {"velocity": 1e-6, "displacement": d0},
+                {"velocity": 1e-5, "displacement": 4 * d0},
+            ],
+        },
+        run={"seed": 3, "record_every": 2e-4, "initial_state": "steady"},
+    )
+    store = tmp_path / "step.zarr"
+    simulate(scenario, store)
+    data = load_measurement(store)
+    assert data.attrs["kind"] == "time_series"
+    assert data.attrs["stiffness_per_load"] == pytest.approx(1e7)
+    assert data.attrs["normal_force"] == 1.0 and data.attrs["temperature"] == 300.0
+    assert set(data.data_vars) >= {"time", "mu", "load_point_displacement", "load_point_velocity"}
+    assert np.unique(data["load_point_velocity"].values).tolist() == [1e-6, 1e-5]
+    for variable in data.data_vars.values():
+        assert variable.attrs["units"] and variable.attrs["long_name"]
+    result = CliRunner().invoke(
+        app, ["fit", str(store), "--law", "aging", "--out", str(tmp_path / "f")]
+    )
+    assert result.exit_code == 0, result.output
+    params = json.loads((tmp_path / "f" / "fit.json").read_text())["params"]
+    assert 0.0 < params["a"] < params["b"]
+    assert 0.1 * d0 < params["dc"] < 3 * d0
+
+
+def test_rigid_drive_is_infinite_stiffness_metadata(tmp_path, csv_text: str) -> None:
+    text = csv_text.replace("# stiffness_per_load: 2500", "# stiffness_per_load: inf")
+    assert load_measurement(_write(tmp_path, text)).attrs["stiffness_per_load"] == np.inf
