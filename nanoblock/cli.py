@@ -253,6 +253,42 @@ def fit(
 
 
 @app.command()
+def diagnose(
+    data: Annotated[
+        Path, typer.Argument(help="measured data (CSV, netCDF, zarr) or a simulator store")
+    ],
+    out: Annotated[Path, typer.Option("--out", "-o", help="output directory")] = Path("diagnosis"),
+    progress: Annotated[bool, typer.Option(help="show a progress bar")] = True,
+) -> None:
+    """Diagnose what the base nanoblock model gets wrong on DATA, and why.
+
+    Fits the base model's coarse-grained surrogate and every testable catalogue
+    extension (physics.md section 5), ranks them by held-out error and information
+    criterion, and writes OUT/diagnosis.json (cause, ranking, base, extended, gain,
+    simulation_check), OUT/report.md, OUT/fits.png and OUT/residuals.png.
+    """
+    from nanoblock.diagnosis import DiagnosisError, diagnose, load_for_diagnosis
+    from nanoblock.diagnosis.report import write_diagnosis
+    from nanoblock.measured import DataError
+
+    with _bad_input(DiagnosisError, DataError, ValueError):
+        measurement = load_for_diagnosis(data)
+        result = diagnose(measurement, progress=progress)
+    written = write_diagnosis(result, out, data.name)
+    gain = result.gain()
+    typer.echo(f"cause: {result.cause}")
+    typer.echo(f"base rms {result.base.rms:.3g} vs noise {result.noise:.3g}")
+    if gain["heldout_error_ratio"] is not None:
+        typer.echo(
+            f"best extension {(result.extended or result.best).id}: held-out ratio "
+            f"{gain['heldout_error_ratio']:.3f}, "
+            f"Delta IC {gain['delta_information_criterion']:+.1f}"
+        )
+    for path in written.values():
+        typer.echo(str(path))
+
+
+@app.command()
 def version() -> None:
     """Print the package version."""
     import nanoblock

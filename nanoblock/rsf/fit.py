@@ -51,6 +51,7 @@ _START_GRID = {
     "theta_star": (-1.5, 0.0, 1.5),
     "v_theta": (-2.5, 0.0, 2.5),
     "tau_m": (-2.5, 0.0, 2.5),
+    "aging_rate": (-2.5, 0.0, 2.5),
     STIFFNESS: (-1.5, 0.0, 1.5),
 }
 """Shifts of the starting point (scaled space: ln for dc, d0, theta* and K/W; additive for a),
@@ -322,7 +323,7 @@ def _initial_params(lw: Law, guess: Mapping[str, float], v0: float) -> dict[str,
     return params
 
 
-def _covariance(jacobian: FloatArray, variance: float) -> FloatArray:
+def parameter_covariance(jacobian: FloatArray, variance: float) -> FloatArray:
     """s^2 (J^T J)^-1 by SVD; directions with singular values below 1e-9 of the largest
     are unidentifiable and get infinite variance."""
     _, singular, vt = np.linalg.svd(jacobian, full_matrices=False)
@@ -564,7 +565,7 @@ def _clamped_setup(
         )
     if not lw.allows_rest:
         raise ValueError(f"law {lw.name!r} cannot start a clamped sample at rest; use silicon")
-    parts = runs(data) if "run" in data else _split_by_force(data)
+    parts = runs(data) if "run" in data else split_by_force(data)
     experiments = []
     for part in parts:
         force = (
@@ -614,7 +615,7 @@ def _clamped_setup(
     )  # fmt: skip
 
 
-def _split_by_force(data: xr.Dataset) -> list[xr.Dataset]:
+def split_by_force(data: xr.Dataset) -> list[xr.Dataset]:
     """Runs of a clamped-sample file without a ``run`` column: one per normal force."""
     if "normal_force" not in data:
         return [data]
@@ -632,7 +633,7 @@ def fit_rsf(
     free: Sequence[str] | None = None,
     initial: Mapping[str, float] | None = None,
     holdout: Sequence[NDArray[np.bool_]] | None = None,
-    search: bool = True,
+    search: bool | Sequence[str] = True,
     method: str = "lsq",
     mcmc_steps: int = 2000,
     seed: int = 0,
@@ -648,8 +649,10 @@ def fit_rsf(
     samples). ``free`` overrides the free parameters; ``initial`` the starting values (and
     fixes any law parameter that is not free). ``holdout`` (one boolean array per run,
     True = held out) hides samples from the fit; the result's model and residuals still
-    cover every sample. ``search=False`` starts only from ``initial`` (a warm start)
-    instead of the multi-start grid. ``method`` is ``"lsq"`` or ``"mcmc"``.
+    cover every sample. ``search`` selects the multi-start grid: every gridded parameter
+    (True), only the named ones (a warm start that explores new parameters), or none
+    (False: a quick refit from ``initial`` alone, stopped at the coarse ODE tolerance).
+    ``method`` is ``"lsq"`` or ``"mcmc"``.
     """
     lw = law(law_name)
     if method not in ("lsq", "mcmc"):
@@ -682,14 +685,20 @@ def fit_rsf(
 
 
 def _solve(
-    lw: Law, setup: _Setup, method: str, mcmc_steps: int, seed: int, search: bool
+    lw: Law,
+    setup: _Setup,
+    method: str,
+    mcmc_steps: int,
+    seed: int,
+    search: bool | Sequence[str],
 ) -> FitResult:
     """Multi-start grid, coarse then fine least squares, SVD errors (and optional MCMC)."""
     problem, v0 = setup.problem, setup.reference_velocity
     x0 = problem.pack(setup.start)
     starts = [x0]
     for name, shifts in _START_GRID.items():
-        if search and name in problem.free:
+        gridded = search is True or (search is not False and name in search)
+        if gridded and name in problem.free:
             step = np.eye(x0.size)[problem.free.index(name)]
             starts = [s + shift * step for s in starts for shift in shifts]
     bounds = _search_bounds(problem, x0)
@@ -705,16 +714,18 @@ def _solve(
         )  # fmt: skip
         if coarse is None or trial.cost < coarse.cost:
             coarse = trial
-    fine = least_squares(
-        problem.residuals, coarse.x, args=(1e-10,), method="trf", x_scale="jac",
-        diff_step=_DIFF_STEP, max_nfev=100, bounds=bounds,
-    )  # fmt: skip
+    fine = coarse
+    if search is not False:  # a warm refit (search=False) stops at the coarse tolerance
+        fine = least_squares(
+            problem.residuals, coarse.x, args=(1e-10,), method="trf", x_scale="jac",
+            diff_step=_DIFF_STEP, max_nfev=100, bounds=bounds,
+        )  # fmt: skip
     x = fine.x
     residual = fine.fun
     n = residual.size
     dof = max(n - x.size, 1)
     variance = float(residual @ residual) / dof
-    covariance = _covariance(fine.jac, variance)
+    covariance = parameter_covariance(fine.jac, variance)
     if method == "mcmc":
         x, covariance = _mcmc(problem, x, covariance, variance, mcmc_steps, seed)
         residual = problem.residuals(x, 1e-10)

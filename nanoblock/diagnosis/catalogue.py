@@ -1,0 +1,168 @@
+"""The catalogue of effects the base model may miss (physics.md section 5), as a registry.
+
+Each entry names a physical cause in one sentence, the parameters its extension adds, the
+simulator option that switches it on, and its coarse-grained surrogate for each kind of
+data where it leaves a signature: an RSF variant (law, slip trend, load-dependent D_c)
+for time series and clamped-sample curves, a :class:`SteadyVariant` of the mean-field
+surrogate for steady-state tables. An entry without a surrogate for a kind of data is
+reported as not testable on it, with the data that would be needed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from nanoblock.diagnosis.steady import SteadyVariant
+
+
+@dataclass(frozen=True)
+class RsfVariant:
+    """An RSF surrogate: a law of :mod:`nanoblock.rsf.laws`, optionally with a linear slip
+    trend and a load-dependent memory length D_c (W / W_ref)^n."""
+
+    law: str
+    trend: bool = False
+    load_exponent: bool = False
+    explore: tuple[str, ...] = ()
+    """Parameters searched on a grid when the fit is warm-started from the base fit."""
+
+
+Surrogate = RsfVariant | SteadyVariant
+
+BASE: dict[str, Surrogate] = {
+    "time_series": RsfVariant("aging"),
+    "clamped_sample": RsfVariant("silicon"),
+    "steady_state": SteadyVariant(),
+}
+"""The base model's surrogate per kind of data: the aging law that ageing and renewal of
+contacts map to (001/Eqs. 3, 16), 000's law in its apparatus (000/Eqs. 9-14), and the
+mean-field quadrature with logarithmic ageing for steady tables."""
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One catalogue entry (physics.md section 5)."""
+
+    id: str
+    cause: str
+    signature: str
+    parameters: dict[str, str]
+    simulator: str
+    """Scenario key(s) that switch the effect on in the nanoblock simulator."""
+    surrogates: dict[str, Surrogate] = field(default_factory=dict)
+    needs: str = ""
+    """What data would show the effect when it cannot be tested on the data at hand."""
+    varies: str | None = None
+    """A column that must take two or more values for the effect to be testable."""
+
+
+CATALOGUE: dict[str, Effect] = {
+    effect.id: effect
+    for effect in (
+        Effect(
+            "barrier_shape",
+            "the activation barrier is a generic saddle-node one, "
+            "dU ~ (1 - sigma/sigma_a)^(3/2), not Persson's 1 - (sigma/sigma_a)^2",
+            "curvature of steady mu against ln V: direct effect ~ [ln(V*/V)]^(2/3)",
+            {},
+            'joint.barrier = "spinodal"',
+            {"steady_state": SteadyVariant(barrier="spinodal")},
+            "a steady-state table over several decades of velocity",
+        ),
+        Effect(
+            "back_jumps",
+            "blocks also hop against the stress, thermally, in detailed balance with the "
+            "forward hops (Eyring)",
+            "at low V friction falls towards zero faster than the log law (sinh-like)",
+            {"back_stress": "stress scale of reverse-hop suppression / sigma_a"},
+            "joint.back_jumps = true",
+            {"steady_state": SteadyVariant(back_jumps=True)},
+            "a steady-state table reaching very low velocities",
+        ),
+        Effect(
+            "velocity_saturation",
+            "contact ageing starts only after a finite creep onset time tau_m, so the "
+            "state effect saturates above V_sat = D0 / tau_m (001/Eqs. 5, 8)",
+            "the rate weakening (or strengthening) flattens at high V",
+            {"tau_m": "creep onset time [s]", "v_saturation": "D0 / tau_m [m/s]"},
+            "interface.aging_time (tau_m)",
+            {
+                "time_series": RsfVariant("saturation", explore=("tau_m",)),
+                "steady_state": SteadyVariant(area="saturation"),
+            },
+        ),
+        Effect(
+            "aging_rate",
+            "stationary contacts do not heal: state evolves only with slip (000/Fig. 4, "
+            "000/Eq. 7), or ageing runs on a separate clock (000/Eqs. 4-5)",
+            "slide-hold-slide peaks and the relaxation after steps unlike the aging law",
+            {"aging_rate": "separate ageing rate h [1/s] (clamped samples)"},
+            "interface.aging_m = 0 with renewal, or interface.state_cutoff_velocity",
+            {
+                "time_series": RsfVariant("slip", explore=("dc",)),
+                "clamped_sample": RsfVariant("two_state", explore=("aging_rate",)),
+            },
+            "velocity steps, slide-hold-slide or clamped-sample curves",
+        ),
+        Effect(
+            "state_velocity_cutoff",
+            "the state law has a cutoff velocity v_theta (000/Eq. 7): contacts age at rate "
+            "V / (V + v_theta), so the state stops growing below v_theta",
+            "steady state flattens on the slow side of v_theta; relaxation after steps and "
+            "holds changes shape",
+            {"v_theta": "state cutoff velocity [m/s]"},
+            "interface.state_cutoff_velocity",
+            {
+                "time_series": RsfVariant("cutoff", explore=("v_theta",)),
+                "steady_state": SteadyVariant(area="cutoff"),
+            },
+        ),
+        Effect(
+            "load_dependent_dc",
+            "the memory length grows with normal load: larger contacts need more slip to "
+            "be renewed (000/Fig. 3 caption)",
+            "a D_c misfit that trends with the normal force across loads",
+            {"dc_load_exponent": "n in D_c ~ W^n"},
+            "interface.memory_length_exponent",
+            {
+                "time_series": RsfVariant("aging", load_exponent=True),
+                "clamped_sample": RsfVariant("silicon", load_exponent=True),
+            },
+            "transients (steps, holds or clamped-sample curves) at two or more normal forces",
+            varies="normal_force",
+        ),
+        Effect(
+            "strength_heterogeneity",
+            "the depinning threshold sigma_a is distributed across asperities",
+            "a smeared cutoff: rounder sigma_s(V) near saturation",
+            {"strength_spread": "log-standard deviation of sigma_a"},
+            "joint.threshold_spread",
+            {"steady_state": SteadyVariant(spread=True)},
+            "a steady-state table reaching the high-velocity saturation",
+        ),
+        Effect(
+            "joint_softening",
+            "the joint softens near T_g: sigma_a (and E_J) fall with temperature (001/Figs. 9, 12)",
+            "A(T) rising faster than T, friction level falling with T",
+            {"softening": "-d ln sigma_a / d ln T"},
+            "joint.glass_temperature",
+            {"steady_state": SteadyVariant(softening=True)},
+            "a steady-state table at two or more temperatures",
+            varies="temperature",
+        ),
+        Effect(
+            "slip_trend",
+            "the interface itself evolves with slip (wear, gouge compaction, layer "
+            "thinning), so friction drifts linearly with slip",
+            "residuals trending linearly with displacement across steps",
+            {"slip_trend": "d mu / d slip [1/m]"},
+            "(none: an apparatus and wear effect outside the nanoblock model)",
+            {"time_series": RsfVariant("aging", trend=True)},
+            "a friction time series with slip",
+        ),
+    )
+}
+"""Every catalogue entry, by id."""
+
+VERDICTS = ("none", "unexplained")
+"""The answers besides a catalogue id."""

@@ -1,0 +1,193 @@
+"""Outputs of ``nanoblock diagnose``: ``diagnosis.json`` (the contract), a report a
+scientist reads in two minutes, and figures (data with base and extended fits; residuals
+before and after)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from nanoblock.diagnosis.catalogue import CATALOGUE
+from nanoblock.diagnosis.core import Candidate, Diagnosis
+
+ABSCISSA = {
+    "time_series": ("load_point_displacement", "load-point displacement (m)"),
+    "clamped_sample": ("s_ext", "motor extension s_ext (m)"),
+    "steady_state": ("ln_velocity", "ln velocity (ln m/s)"),
+}
+
+
+def _finite(value: Any) -> Any:
+    """JSON-safe: non-finite floats become None, recursively."""
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(v) for v in value]
+    if isinstance(value, float | np.floating):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, np.integer | np.bool_):
+        return value.item()
+    return value
+
+
+def _abscissa(diagnosis: Diagnosis) -> tuple[list[np.ndarray], str]:
+    name, label = ABSCISSA[diagnosis.kind]
+    if name in diagnosis.covariates:
+        return diagnosis.covariates[name], label
+    return diagnosis.covariates["time"], "time (s)"
+
+
+def plot_diagnosis(diagnosis: Diagnosis, out: Path) -> dict[str, Path]:
+    """``fits.png``: data, base and extended models; ``residuals.png``: residuals of the
+    base and the extended model against the abscissa, with the noise band."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    x_runs, label = _abscissa(diagnosis)
+    other = diagnosis.extended or diagnosis.best
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for i, (x, y, base) in enumerate(
+        zip(x_runs, diagnosis.observed, diagnosis.base.fit.model, strict=True)
+    ):
+        order = np.argsort(x, kind="stable")
+        ax.plot(x, y, ".", ms=2, color="0.6", label="data" if i == 0 else None)
+        ax.plot(x[order], base[order], "-", color="C0", lw=1.2,
+                label="base model" if i == 0 else None)  # fmt: skip
+        if other is not None:
+            model = other.fit.model[i]
+            ax.plot(x[order], model[order], "--", color="C3", lw=1.2,
+                    label=f"extended: {other.id}" if i == 0 else None)  # fmt: skip
+    ax.set_xlabel(label)
+    ax.set_ylabel(diagnosis.signal_label)
+    ax.set_title(f"diagnosis: {diagnosis.cause}", fontsize=10)
+    ax.legend(frameon=False, fontsize=8)
+    fig.tight_layout()
+    fits = out / "fits.png"
+    fig.savefig(fits, dpi=120)
+    plt.close(fig)
+
+    rows = [diagnosis.base] + ([other] if other is not None else [])
+    fig, axes = plt.subplots(len(rows), 1, sharex=True, figsize=(7, 2.2 * len(rows) + 0.8))
+    for ax, candidate in zip(np.atleast_1d(axes), rows, strict=True):
+        for x, r in zip(x_runs, candidate.residuals, strict=True):
+            ax.plot(x, r, ".", ms=2, color="C0" if candidate is diagnosis.base else "C3")
+        ax.axhspan(-2 * diagnosis.noise, 2 * diagnosis.noise, color="0.85", zorder=0)
+        ax.axhline(0.0, color="k", lw=0.8)
+        ax.set_ylabel("model - data")
+        ax.set_title(f"{candidate.id}: rms {candidate.rms:.3g} (noise {diagnosis.noise:.3g})",
+                     fontsize=9)  # fmt: skip
+    np.atleast_1d(axes)[-1].set_xlabel(label)
+    fig.tight_layout()
+    residuals = out / "residuals.png"
+    fig.savefig(residuals, dpi=120)
+    plt.close(fig)
+    return {"fits": fits, "residuals": residuals}
+
+
+def _verdict_text(diagnosis: Diagnosis) -> list[str]:
+    base = diagnosis.base
+    lines = [
+        f"- Base model rms residual {base.rms:.3g} against a noise of {diagnosis.noise:.3g} "
+        f"(chi^2 ratio {base.structure.chi2_ratio:.2f}; sign-runs z {base.structure.runs_z:.1f}; "
+        f"lag-1 autocorrelation {base.structure.lag1:.2f}).",
+    ]
+    if diagnosis.cause == "none":
+        lines.append(
+            "- **Verdict: none.** The base model explains the data within noise; no catalogue "
+            "extension earns its extra parameters out of sample."
+        )
+    elif diagnosis.cause == "unexplained":
+        best = diagnosis.best
+        lines.append(
+            "- **Verdict: unexplained.** The residuals are systematic, and no catalogue "
+            "extension removes the misfit"
+            + (
+                f" (the best, {best.id}, explains "
+                f"{100 * diagnosis.gain()['variance_explained']:.0f} % of the residual "
+                "variance)."
+                if best is not None
+                else "."
+            )
+        )
+    else:
+        effect = CATALOGUE[diagnosis.cause]
+        lines += [
+            f"- **Verdict: {effect.id}.** Cause: {effect.cause}.",
+            f"- Signature in data: {effect.signature}.",
+            f"- Simulator option: `{effect.simulator}`.",
+        ]
+    return lines
+
+
+def _table(candidates: list[Candidate], base: Candidate) -> list[str]:
+    lines = [
+        "| model | held-out error | IC | Delta IC vs base | rms | residuals systematic |",
+        "|---|---|---|---|---|---|",
+    ]
+    for c in [base, *candidates]:
+        lines.append(
+            f"| {c.id} | {c.heldout_error:.4g} | {c.information_criterion:.1f} | "
+            f"{base.information_criterion - c.information_criterion:+.1f} | {c.rms:.4g} | "
+            f"{'yes' if c.structure.systematic else 'no'} |"
+        )
+    return lines
+
+
+def _params(title: str, candidate: Candidate) -> list[str]:
+    lines = [f"**{title}** ({candidate.id})", "", "| parameter | value | stderr |", "|---|---|---|"]
+    for key, value in candidate.fit.params.items():
+        error = candidate.fit.stderr.get(key)
+        shown = "" if error is None else f"{error:.3g}"
+        lines.append(f"| {key} | {value:.5g} | {shown} |")
+    return lines
+
+
+def write_report(diagnosis: Diagnosis, source: str, figures: dict[str, Path]) -> str:
+    """The two-minute report: what is wrong, why, what was changed, what was gained."""
+    gain = diagnosis.gain()
+    other = diagnosis.extended or diagnosis.best
+    lines = [f"# Diagnosis of {source}", "", f"Data kind: {diagnosis.kind}.", ""]
+    lines += ["## What is wrong, and why", "", *_verdict_text(diagnosis), ""]
+    if other is not None:
+        lines += [
+            "## What was changed, and what it gained",
+            "",
+            f"Extension `{other.id}` "
+            + ("(accepted)" if other is diagnosis.extended else "(best, not accepted)")
+            + f": held-out error ratio base/extended {gain['heldout_error_ratio']:.3f}, "
+            f"residual variance explained {100 * gain['variance_explained']:.1f} %, "
+            f"Delta IC {gain['delta_information_criterion']:+.1f}.",
+            "",
+        ]
+    check = diagnosis.simulation_check
+    if check:
+        lines += ["## Simulation check", "", f"{check.get('summary', check.get('status'))}", ""]
+    lines += ["## Ranking (held-out blocks and BIC)", "", *_table(diagnosis.candidates,
+                                                                 diagnosis.base), ""]  # fmt: skip
+    if diagnosis.untestable:
+        lines += ["Not testable on these data:", ""]
+        lines += [f"- {key}: {reason}" for key, reason in diagnosis.untestable.items()]
+        lines.append("")
+    lines += [*_params("Base fit", diagnosis.base), ""]
+    if other is not None:
+        lines += [*_params("Extended fit", other), ""]
+    lines += [f"![{name}]({path.name})" for name, path in figures.items()]
+    return "\n".join(lines) + "\n"
+
+
+def write_diagnosis(diagnosis: Diagnosis, out: str | Path, source: str) -> dict[str, Path]:
+    """Write ``diagnosis.json``, ``report.md``, ``fits.png`` and ``residuals.png``."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    figures = plot_diagnosis(diagnosis, out)
+    json_path = out / "diagnosis.json"
+    json_path.write_text(json.dumps(_finite(diagnosis.to_json()), indent=2) + "\n")
+    report = out / "report.md"
+    report.write_text(write_report(diagnosis, source, figures))
+    return {"json": json_path, "report": report, **figures}

@@ -1,0 +1,142 @@
+"""Statistics of a misfit: the noise of the data, structure in residuals, model comparison.
+
+Everything here works on plain arrays, one per run (or per group of a table), so that the
+same tests serve time series, clamped-sample curves and steady-state tables.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+MAD_TO_SIGMA = 1.4826
+"""Standard deviation of a Gaussian per unit median absolute deviation."""
+
+
+def noise_level(signals: Sequence[FloatArray]) -> float:
+    """White-noise standard deviation of the data, from the data alone.
+
+    Second differences y[i+1] - 2 y[i] + y[i-1] cancel any signal that is smooth on the
+    sampling scale and leave 6 sigma^2 of white noise; their median absolute deviation
+    (pooled over runs) is robust to the few samples where the signal itself bends
+    sharply (a velocity step, a reload). Units of the signal.
+    """
+    curvature = np.concatenate([np.diff(np.asarray(y, dtype=float), 2) for y in signals])
+    if curvature.size < 3:
+        raise ValueError("the noise estimate needs at least 3 samples in a run")
+    centred = curvature - np.median(curvature)
+    return float(MAD_TO_SIGMA * np.median(np.abs(centred)) / math.sqrt(6.0))
+
+
+@dataclass(frozen=True)
+class Structure:
+    """Tests of residuals for systematic structure (each run tested in sample order)."""
+
+    chi2_ratio: float
+    """Mean squared residual over the noise variance (1 for a model within noise)."""
+    runs_z: float
+    """Wald-Wolfowitz z of the number of sign runs (strongly negative: long runs)."""
+    lag1: float
+    """Lag-1 autocorrelation of the residuals (pooled over runs)."""
+    lag1_z: float
+    """lag1 sqrt(n): about N(0, 1) for white residuals."""
+    n: int
+
+    @property
+    def systematic(self) -> bool:
+        """Whether the residuals show structure beyond white noise: chi^2 above 1 by more
+        than 5 of its standard errors sqrt(2/n) plus a 10 % allowance for the noise
+        estimate, or sign runs / autocorrelation beyond 5 standard errors."""
+        chi2_limit = 1.1 + 5.0 * math.sqrt(2.0 / self.n)
+        return self.chi2_ratio > chi2_limit or self.runs_z < -5.0 or self.lag1_z > 5.0
+
+    def to_json(self) -> dict[str, float | bool | int]:
+        return {
+            "chi2_ratio": self.chi2_ratio,
+            "runs_z": self.runs_z,
+            "lag1_autocorrelation": self.lag1,
+            "lag1_z": self.lag1_z,
+            "n": self.n,
+            "systematic": self.systematic,
+        }
+
+
+def runs_test(residuals: Sequence[FloatArray]) -> float:
+    """Wald-Wolfowitz z statistic of sign runs, pooled over runs (zeros dropped)."""
+    n_runs = n_pos = n_neg = 0
+    for r in residuals:
+        signs = np.sign(np.asarray(r, dtype=float))
+        signs = signs[signs != 0]
+        if signs.size == 0:
+            continue
+        n_runs += 1 + int(np.count_nonzero(np.diff(signs)))
+        n_pos += int(np.count_nonzero(signs > 0))
+        n_neg += int(np.count_nonzero(signs < 0))
+    n = n_pos + n_neg
+    if n_pos == 0 or n_neg == 0:
+        return -math.inf
+    mean = 2.0 * n_pos * n_neg / n + len(residuals)
+    variance = 2.0 * n_pos * n_neg * (2.0 * n_pos * n_neg - n) / (n * n * (n - 1))
+    return float((n_runs - mean) / math.sqrt(max(variance, 1e-300)))
+
+
+def lag1_autocorrelation(residuals: Sequence[FloatArray]) -> float:
+    """Lag-1 autocorrelation of residuals about zero, pooled over runs."""
+    products = sum(float(np.dot(r[1:], r[:-1])) for r in residuals)
+    squares = sum(float(np.dot(r, r)) for r in residuals)
+    return products / squares if squares > 0.0 else 0.0
+
+
+def structure(residuals: Sequence[FloatArray], noise: float) -> Structure:
+    """Residual structure of a fit against the noise level of the data."""
+    pooled = np.concatenate([np.asarray(r, dtype=float) for r in residuals])
+    n = pooled.size
+    lag1 = lag1_autocorrelation(residuals)
+    return Structure(
+        chi2_ratio=float(np.mean(pooled**2)) / noise**2 if noise > 0 else math.inf,
+        runs_z=runs_test(residuals),
+        lag1=lag1,
+        lag1_z=lag1 * math.sqrt(n),
+        n=n,
+    )
+
+
+def information_criterion(residuals: Sequence[FloatArray], n_free: int) -> float:
+    """Bayesian information criterion n ln(RSS / n) + k ln n of a Gaussian fit whose
+    variance is also estimated (so a wrong noise estimate does not bias the ranking)."""
+    pooled = np.concatenate([np.asarray(r, dtype=float) for r in residuals])
+    n = pooled.size
+    rss = float(pooled @ pooled)
+    return n * math.log(max(rss, 1e-300) / n) + n_free * math.log(n)
+
+
+def blocked_folds(
+    sizes: Sequence[int], n_folds: int, block_length: int
+) -> list[list[NDArray[np.bool_]]]:
+    """Blocked cross-validation masks: each run is cut into contiguous blocks of
+    ``block_length`` samples and fold j holds out blocks j, j + n_folds, ... of every run.
+    Every sample is held out exactly once, each held-out block is a gap the model must
+    bridge (longer than the noise correlation of a fit's residuals), and every fold still
+    sees every part of the protocol (each step, hold and velocity range)."""
+    folds = []
+    for j in range(n_folds):
+        masks = []
+        for size in sizes:
+            block = np.arange(size) // block_length
+            masks.append(block % n_folds == j)
+        folds.append(masks)
+    return folds
+
+
+def leave_one_run_out(sizes: Sequence[int]) -> list[list[NDArray[np.bool_]]]:
+    """Held-out masks holding out one whole run at a time."""
+    return [
+        [np.full(size, i == j, dtype=bool) for i, size in enumerate(sizes)]
+        for j in range(len(sizes))
+    ]

@@ -1,0 +1,271 @@
+"""Coarse-grained surrogate of the nanoblock interface for steady-state tables.
+
+The base model's steady friction is the mean-field joint stress (001/Eq. 28, exact
+quadrature in :mod:`nanoblock.theory.meanfield`) times the aged contact area
+(001/Eq. 5 with the steady age D0 / V, 001/Eq. 3):
+
+    mu_ss(V, T) = mu_r [S(V, T) / S(V_r, T_r)] [1 + m ln(V_r / V)],
+
+with S = sigma_s / sigma_a a function of the reduced barrier u(T) = u_r T_r / T and of
+the attempt velocity v_a = omega_a rho~_max (physics.md sections 1-2). Catalogue
+extensions (physics.md section 5) change one factor each: the barrier law, reverse hops,
+the creep onset time or state cutoff in the area factor, a distribution of sigma_a, or
+a joint that softens with temperature.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import least_squares
+
+from nanoblock.barriers import BOLTZMANN
+from nanoblock.rsf.fit import parameter_covariance
+from nanoblock.theory.meanfield import MeanFieldJoint, steady_stress
+
+FloatArray = NDArray[np.float64]
+
+_SIGMA_A, _E_J, _T = 1.0e8, 1.0e9, 300.0
+"""Canonical joint used to evaluate S(V; u, v_a): only u and v_a matter."""
+_CLASSES = np.polynomial.hermite_e.hermegauss(7)
+"""Gauss-Hermite nodes and weights of a standard normal (strength classes)."""
+
+
+@dataclass(frozen=True)
+class SteadyTable:
+    """A steady-state table: mu at (V, T), with the reference point of the fit."""
+
+    velocity: FloatArray
+    temperature: FloatArray
+    mu: FloatArray
+    v_ref: float
+    t_ref: float
+
+    @property
+    def temperatures(self) -> int:
+        """Number of distinct temperatures."""
+        return int(np.unique(self.temperature).size)
+
+
+@dataclass(frozen=True)
+class SteadyVariant:
+    """Which factors of mu_ss differ from the base model, and their extra parameters."""
+
+    barrier: str = "persson"
+    back_jumps: bool = False
+    area: str = "log"
+    """``log`` (base), ``saturation`` (finite tau_m) or ``cutoff`` (state cutoff v_theta)."""
+    spread: bool = False
+    softening: bool = False
+
+    @property
+    def extra(self) -> tuple[str, ...]:
+        """Names of the parameters this variant adds to (mu_r, u, v_attempt, m)."""
+        names = []
+        if self.back_jumps:
+            names.append("back_stress")
+        if self.area == "saturation":
+            names.append("v_saturation")
+        if self.area == "cutoff":
+            names.append("v_theta")
+        if self.spread:
+            names.append("strength_spread")
+        if self.softening:
+            names.append("softening")
+        return tuple(names)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return ("mu_r", "u", "v_attempt", "m", *self.extra)
+
+
+UNITS = {
+    "mu_r": "1",
+    "u": "1",
+    "v_attempt": "m/s",
+    "m": "1",
+    "back_stress": "1",
+    "v_saturation": "m/s",
+    "v_theta": "m/s",
+    "strength_spread": "1",
+    "softening": "1",
+}
+"""Units of the surrogate's parameters (u at T_r; back_stress in units of sigma_a;
+softening: d ln sigma_a / d ln T at T_r)."""
+_LINEAR = {"mu_r", "m", "softening"}
+
+
+def reduced_stress(
+    velocity: FloatArray, u: float, v_attempt: float, barrier: str = "persson"
+) -> FloatArray:
+    """S = sigma_s / sigma_a of the mean-field joint with reduced barrier u and attempt
+    velocity v_a = omega_a rho~_max [m/s] (001/Eq. 28)."""
+    block = (u * _E_J * BOLTZMANN * _T / _SIGMA_A**2) ** (1.0 / 3.0)
+    k1 = _E_J * block
+    rho_max = block**2 * _SIGMA_A / k1
+    joint = MeanFieldJoint(block, _E_J, _SIGMA_A, k1, v_attempt / rho_max, _T, barrier)
+    return steady_stress(velocity, joint) / _SIGMA_A
+
+
+def _eyring(velocity: FloatArray, u: float, v_attempt: float, barrier: str, back: float):
+    """S with reverse hops in detailed balance (Eyring, 001 after Eq. 33): forward hops at
+    stress S run at V_f, reverse ones at V_f exp(-S / s_b), so V = V_f (1 - e^{-S/s_b})
+    and friction falls to zero as V -> 0 like sinh^-1."""
+    lo, hi = np.log(velocity.min()) - 25.0, np.log(velocity.max()) + 2.0
+    forward = np.exp(np.linspace(lo, hi, 241))
+    stress = reduced_stress(forward, u, v_attempt, barrier)
+    net = forward * -np.expm1(-stress / back)
+    return np.interp(np.log(velocity), np.log(net), stress)
+
+
+def _direct(
+    variant: SteadyVariant, velocity: FloatArray, u: float, v_attempt: float, back: float
+) -> FloatArray:
+    if variant.back_jumps:
+        return _eyring(velocity, u, v_attempt, variant.barrier, back)
+    return reduced_stress(velocity, u, v_attempt, variant.barrier)
+
+
+def _strength(variant: SteadyVariant, velocity, temperature, p: Mapping[str, float], t_ref):
+    """sigma_a-weighted S at each (V, T), averaged over strength classes when spread."""
+    out = np.empty(velocity.size)
+    for t in np.unique(temperature):
+        here = temperature == t
+        softened = (t / t_ref) ** (-p.get("softening", 0.0))  # sigma_a(T) / sigma_a(T_r)
+        nodes, weights = _CLASSES if variant.spread else (np.zeros(1), np.ones(1))
+        spread = p.get("strength_spread", 0.0)
+        total = np.zeros(int(here.sum()))
+        for z, w in zip(nodes, weights / weights.sum(), strict=True):
+            g = softened * math.exp(spread * z - 0.5 * spread**2)  # sigma_a class / sigma_a
+            u = p["u"] * (t_ref / t) * g**2  # U_a ~ sigma_a^2 (001/Eq. 37)
+            s = _direct(variant, velocity[here], u, p["v_attempt"] * g, p.get("back_stress", 1))
+            total += w * g * s
+        out[here] = total
+    return out
+
+
+def _area(variant: SteadyVariant, velocity: FloatArray, p: Mapping[str, float], v_ref: float):
+    """Aged contact area relative to V_r: 1 + m ln(<age>(V) / <age>(V_r)) (001/Eqs. 3, 5)."""
+    if variant.area == "saturation":  # age / tau_m saturates: ln(1 + D0 / (V tau_m))
+        v_sat = p["v_saturation"]
+        ratio = (1.0 / velocity + 1.0 / v_sat) / (1.0 / v_ref + 1.0 / v_sat)
+    elif variant.area == "cutoff":  # steady age D0 / (V + v_theta) (000/Eq. 7)
+        ratio = (v_ref + p["v_theta"]) / (velocity + p["v_theta"])
+    else:
+        ratio = v_ref / velocity
+    return 1.0 + p["m"] * np.log(ratio)
+
+
+def steady_model(variant: SteadyVariant, table: SteadyTable, p: Mapping[str, float]) -> FloatArray:
+    """mu_ss of the surrogate at every row of ``table``."""
+    strength = _strength(variant, table.velocity, table.temperature, p, table.t_ref)
+    reference = _strength(
+        variant, np.array([table.v_ref]), np.array([table.t_ref]), p, table.t_ref
+    )[0]
+    return p["mu_r"] * strength / reference * _area(variant, table.velocity, p, table.v_ref)
+
+
+@dataclass(frozen=True)
+class SteadyFit:
+    """Fitted surrogate: parameters, standard errors and the model at every row."""
+
+    params: dict[str, float]
+    stderr: dict[str, float]
+    model: FloatArray
+
+
+_STARTS = {"u": (15.0, 35.0, 70.0), "v_attempt": (1e-1, 1e2, 1e5)}
+_EXTRA_START = {
+    "back_stress": 0.01,
+    "strength_spread": 0.2,
+    "softening": 0.5,
+}
+
+
+def _starts(
+    variant: SteadyVariant, table: SteadyTable, warm: Mapping[str, float] | None
+) -> list[dict[str, float]]:
+    """Starting points: a grid in (u, v_a) with mu_r, m and the extras at neutral values
+    (saturation and cutoff velocities at the ends of the measured range); from a warm
+    start, the extras alone are set on a grid (low, middle and high of their range)."""
+    v = table.velocity
+    extra = dict(_EXTRA_START)
+    extra["v_saturation"] = float(v.max())
+    extra["v_theta"] = float(v.min())
+    if warm is not None:
+        missing = [name for name in variant.names if name not in warm]
+        span = float(np.log(v.max() / v.min()))
+        factors = (1.0, math.exp(span / 2), math.exp(span)) if missing else (1.0,)
+        shift = {"v_saturation": -1.0, "v_theta": 1.0}
+        return [
+            {**warm, **{k: extra[k] * f ** shift.get(k, -0.5) for k in missing}} for f in factors
+        ]
+    mu_r = float(np.interp(math.log(table.v_ref), np.log(np.sort(v)), table.mu[np.argsort(v)]))
+    base = {"mu_r": mu_r, "m": 0.01}
+    return [
+        {**base, "u": u, "v_attempt": va, **{k: extra[k] for k in variant.extra}}
+        for u in _STARTS["u"]
+        for va in _STARTS["v_attempt"]
+    ]
+
+
+def fit_steady(
+    variant: SteadyVariant,
+    table: SteadyTable,
+    holdout: NDArray[np.bool_] | None = None,
+    start: Mapping[str, float] | None = None,
+) -> SteadyFit:
+    """Least-squares fit of the surrogate (log scale for u, velocities and spreads),
+    multi-start, or warm-started from ``start`` (parameters it lacks are gridded);
+    ``holdout`` rows are not fitted."""
+    names = variant.names
+    log = np.array([name not in _LINEAR for name in names])
+    fitted = np.ones(table.mu.size, dtype=bool) if holdout is None else ~holdout
+
+    def unpack(x: Sequence[float]) -> dict[str, float]:
+        return {n: float(math.exp(v) if lg else v) for n, v, lg in zip(names, x, log, strict=True)}
+
+    def pack(p: Mapping[str, float]) -> FloatArray:
+        return np.array([math.log(p[n]) if lg else p[n] for n, lg in zip(names, log, strict=True)])
+
+    def residuals(x: FloatArray) -> FloatArray:
+        with np.errstate(all="ignore"):
+            try:
+                r = steady_model(variant, table, unpack(x))[fitted] - table.mu[fitted]
+            except (ValueError, FloatingPointError, ZeroDivisionError, OverflowError):
+                return np.full(int(fitted.sum()), 1e3)
+        return np.where(np.isfinite(r), r, 1e3)
+
+    lower = np.full(len(names), -np.inf)
+    upper = np.full(len(names), np.inf)
+    for i, name in enumerate(names):
+        if name == "u":
+            lower[i], upper[i] = math.log(2.0), math.log(500.0)
+        elif name in ("back_stress", "strength_spread"):
+            lower[i], upper[i] = math.log(1e-4), math.log(3.0)
+    starts = [pack({n: s[n] for n in names}) for s in _starts(variant, table, start)]
+    best = None
+    for x0 in starts:
+        x0 = np.clip(x0, lower + 1e-9, upper - 1e-9)
+        trial = least_squares(residuals, x0, bounds=(lower, upper), x_scale="jac", max_nfev=300)
+        if best is None or trial.cost < best.cost:
+            best = trial
+    params = unpack(best.x)
+    dof = max(best.fun.size - best.x.size, 1)
+    variance = float(best.fun @ best.fun) / dof
+    errors = _errors(best.jac, variance, params, names, log)
+    return SteadyFit(params, errors, steady_model(variant, table, params))
+
+
+def _errors(jac, variance, params, names, log) -> dict[str, float]:
+    """Natural-unit standard errors (infinite along unidentified directions)."""
+    covariance = parameter_covariance(jac, variance)
+    out = {}
+    for i, name in enumerate(names):
+        sigma = math.sqrt(covariance[i, i]) if math.isfinite(covariance[i, i]) else math.inf
+        out[name] = params[name] * sigma if log[i] else sigma
+    return out

@@ -1,0 +1,203 @@
+"""Diagnosis: statistics against closed forms, the catalogue registry, refusals of bad data,
+the command line, and hidden effects found in data made by other code paths."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from nanoblock.cli import app
+from nanoblock.diagnosis import CATALOGUE, DiagnosisError, diagnose, load_for_diagnosis
+from nanoblock.diagnosis.statistics import blocked_folds, noise_level, runs_test, structure
+from nanoblock.diagnosis.validation import check_diagnosable
+from tests.diagnosis_synthetic import (
+    NOISE,
+    clamped_case,
+    hidden_case,
+    steady_case,
+    time_series_case,
+)
+from tests.rsf_synthetic import record, write_csv
+
+PHYSICS = Path(__file__).resolve().parents[2] / "shared" / "physics.md"
+SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+CONTRACT = {"cause", "ranking", "base", "extended", "gain", "simulation_check"}
+
+
+def test_noise_level_of_white_noise_on_a_smooth_signal() -> None:
+    """Second-difference MAD estimate: unbiased for white noise; its relative standard
+    error at n samples is ~ 1.65 / sqrt(n) (MAD efficiency 37 %, 3 overlapping terms)."""
+    rng = np.random.default_rng(1)
+    n, sigma = 20_000, 3e-4
+    t = np.linspace(0.0, 1.0, n)
+    signal = 0.6 + 0.02 * np.log1p(50 * t) + 0.01 * (t > 0.5)  # smooth, plus one jump
+    estimate = noise_level([signal + sigma * rng.standard_normal(n)])
+    assert estimate == pytest.approx(sigma, rel=5 * 1.65 / math.sqrt(n))
+
+
+def test_structure_of_white_and_of_correlated_residuals() -> None:
+    """White residuals: runs z and lag-1 z are N(0, 1); a random walk is systematic."""
+    rng = np.random.default_rng(2)
+    white = [rng.standard_normal(4000)]
+    s = structure(white, 1.0)
+    assert abs(s.runs_z) < 4 and abs(s.lag1_z) < 4 and not s.systematic
+    walk = [np.cumsum(rng.standard_normal(4000)) * 0.05]
+    assert structure(walk, 1.0).systematic
+    assert runs_test(walk) < -5
+
+
+def test_blocked_folds_hold_out_every_sample_once() -> None:
+    folds = blocked_folds([95, 40], n_folds=4, block_length=10)
+    for run in range(2):
+        total = sum(fold[run].astype(int) for fold in folds)
+        assert np.all(total == 1)
+    assert folds[1][0][10:20].all() and not folds[1][0][:10].any()
+
+
+def test_catalogue_is_complete_and_documented() -> None:
+    """Every id of physics.md section 5's table is registered, with a cause, a simulator
+    option and a surrogate for at least one kind of data."""
+    if PHYSICS.exists():
+        section = PHYSICS.read_text().split("## 5.")[1].split("## 6.")[0]
+        ids = set(re.findall(r"^\| ([a-z_]+) \|", section, flags=re.MULTILINE)) - {"id"}
+        assert ids == set(CATALOGUE)
+    for effect in CATALOGUE.values():
+        assert effect.cause and effect.signature and effect.simulator
+        assert effect.surrogates
+
+
+def _step_record(n: int = 400):
+    rng = np.random.default_rng(4)
+    truth = {"mu0": 0.6, "a": 0.01, "b": 0.013, "dc": 2e-5, "v0": 1e-6}
+    data = record("aging", truth, "velocity_step", 2500.0, rng, n_samples=n)
+    data.attrs["stiffness_per_load"] = 2500.0
+    return data
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ("few", "needs at least 50"),
+        ("one_velocity", "one velocity only"),
+        ("constant", "is constant"),
+        ("nan", "missing"),
+    ],
+)
+def test_bad_data_is_refused_with_what_would_be_needed(change: str, message: str) -> None:
+    data = _step_record()
+    if change == "few":
+        data = data.isel(sample=slice(0, 30))
+    elif change == "one_velocity":
+        data = data.isel(sample=slice(0, 250))  # before the step
+    elif change == "constant":
+        data["mu"].values[:] = 0.6
+    else:
+        data["mu"].values[7] = np.nan
+    with pytest.raises(DiagnosisError, match=message):
+        check_diagnosable(data)
+
+
+def test_small_steady_table_is_refused() -> None:
+    rng = np.random.default_rng(5)
+    data = steady_case("none", rng, NOISE["steady_state"]).isel(sample=slice(0, 6))
+    with pytest.raises(DiagnosisError, match="decades"):
+        diagnose(data)
+
+
+def test_csv_with_missing_values_is_refused(tmp_path: Path) -> None:
+    data = _step_record()
+    data["mu"].values[[3, 9]] = np.nan
+    path = write_csv(data, tmp_path / "gappy.csv", {"stiffness_per_load": 2500.0})
+    with pytest.raises(DiagnosisError, match="complete rows"):
+        load_for_diagnosis(path)
+    result = CliRunner().invoke(app, ["diagnose", str(path), "--out", str(tmp_path / "d")])
+    assert result.exit_code == 2 and "complete rows" in result.output
+
+
+def test_cli_writes_the_contract(tmp_path: Path) -> None:
+    """A slip-trended velocity step: the command writes diagnosis.json with the contract
+    keys, a report and two figures, and names the trend."""
+    rng = np.random.default_rng(6)
+    truth = {"mu0": 0.6, "a": 0.01, "b": 0.013, "dc": 2e-5, "v0": 1e-6}
+    data = record("aging", truth, "velocity_step", 2500.0, rng, n_samples=400, trend=150.0)
+    path = write_csv(data, tmp_path / "trend.csv", {"stiffness_per_load": 2500.0})
+    out = tmp_path / "diagnosis"
+    result = CliRunner().invoke(app, ["diagnose", str(path), "--out", str(out), "--no-progress"])
+    assert result.exit_code == 0, result.output
+    content = json.loads((out / "diagnosis.json").read_text())
+    assert CONTRACT <= set(content)
+    assert content["cause"] == "slip_trend"
+    assert content["extended"]["params"]["slip_trend"] == pytest.approx(150.0, rel=0.1)
+    assert {"id", "heldout_error", "information_criterion", "params"} <= set(content["ranking"][0])
+    assert content["gain"]["heldout_error_ratio"] > 1.5
+    assert content["base"]["noise"] == pytest.approx(2e-4, rel=0.2)
+    report = (out / "report.md").read_text()
+    assert "slip_trend" in report and "Verdict" in report
+    assert (out / "fits.png").stat().st_size > 10_000
+    assert (out / "residuals.png").stat().st_size > 10_000
+
+
+HIDDEN_CASES = 40
+"""Cases of the hidden-effect test (about three in four carry an effect)."""
+HIDDEN_MIN_RATE = 0.9
+
+
+@pytest.mark.slow
+def test_hidden_effects_are_found() -> None:
+    """Effects (or none) drawn at random from a fixed seed, in data of every kind made by
+    other code paths (tests/diagnosis_synthetic.py): the right id in >= 90 % of the effect
+    cases and ``none`` in >= 90 % of the effect-free ones."""
+    rng = np.random.default_rng(20261122)
+    outcomes = []
+    for _ in range(HIDDEN_CASES):
+        truth, data = hidden_case(rng)
+        outcomes.append((truth, diagnose(data).cause))
+    with_effect = [(t, c) for t, c in outcomes if t != "none"]
+    without = [(t, c) for t, c in outcomes if t == "none"]
+    assert len(with_effect) >= 30 or len(outcomes) >= 30
+    right = sum(t == c for t, c in with_effect)
+    quiet = sum(c == "none" for _, c in without)
+    summary = f"{right}/{len(with_effect)} effects, {quiet}/{len(without)} none: {outcomes}"
+    assert right >= HIDDEN_MIN_RATE * len(with_effect), summary
+    assert quiet >= HIDDEN_MIN_RATE * len(without), summary
+
+
+@pytest.mark.slow
+def test_silicon_fig3_with_load_dependent_memory_length(tmp_path: Path) -> None:
+    """000/Fig. 3 ramps at six normal forces with D_c ~ N^0.7: diagnosed as
+    load_dependent_dc, the exponent recovered, and a gain reported."""
+    rng = np.random.default_rng(3)
+    forces = (100.0, 200.0, 300.0, 400.0, 500.0, 600.0)
+    data = clamped_case(
+        "load_dependent_dc", rng, NOISE["clamped_sample"], forces=forces, exponent=0.7
+    )
+    result = diagnose(data)
+    assert result.cause == "load_dependent_dc"
+    exponent = result.extended.fit.params["dc_load_exponent"]
+    assert abs(exponent - 0.7) < 3 * result.extended.fit.stderr["dc_load_exponent"]
+    gain = result.gain()
+    assert gain["heldout_error_ratio"] > 1.2 and gain["delta_information_criterion"] > 10
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("effect", ["none", "aging_rate"])
+def test_effect_free_and_effect_time_series(effect: str) -> None:
+    rng = np.random.default_rng(8)
+    assert diagnose(time_series_case(effect, rng, NOISE["time_series"])).cause == effect
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not SHARED_DATA.is_dir(), reason=f"laboratory data absent ({SHARED_DATA})")
+def test_laboratory_velocity_step_is_diagnosed(tmp_path: Path) -> None:
+    """A real velocity step: the diagnosis runs, estimates the noise from the data, and
+    does not claim the base model fits within noise (lab residuals are correlated)."""
+    data = load_for_diagnosis(SHARED_DATA / "p655_100MPa_vstep_2p3to23.csv")
+    result = diagnose(data)
+    assert result.cause != "none"
+    assert 0 < result.noise < result.base.rms
