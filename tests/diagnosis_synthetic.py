@@ -108,7 +108,7 @@ def time_series_case(effect: str, rng: np.random.Generator, noise: float) -> xr.
     elif effect != "none":
         raise ValueError(effect)
     segments = _protocol(truth["dc"], v1)
-    time = _segment_times(segments, 120)
+    time = _segment_times(segments, 80)
     displacement = _displacement(segments, time)
     w_ref = math.exp(np.mean(np.log(forces)))
     columns: dict[str, list[np.ndarray]] = {}
@@ -163,7 +163,7 @@ def steady_case(effect: str, rng: np.random.Generator, noise: float) -> xr.Datas
     v_attempt = math.exp(rng.uniform(math.log(30.0), math.log(3000.0)))
     memory, m = 1e-6 * rng.uniform(0.2, 2.0), rng.uniform(0.0, 0.03)
     scale = rng.uniform(0.3, 0.5)
-    velocity = np.logspace(-9.0, 0.5, 32)
+    velocity = np.logspace(-10.0, 0.5, 36)
     temperatures = [293.0]
     barrier, spread, extra = "persson", 0.0, 0.0
     t_ref, t_glass, drop = 293.0, 383.0, 0.0
@@ -261,7 +261,7 @@ def clamped_case(
     elif effect != "none":
         raise ValueError(effect)
     rate, duration = 127e-6 / 370.0, 370.0
-    times = np.linspace(0.0, duration, 300)
+    times = np.linspace(0.0, duration, 150)
     w_ref = math.exp(np.mean(np.log(forces)))
     columns: dict[str, list[np.ndarray]] = {}
     for run, force in enumerate(forces):
@@ -281,20 +281,20 @@ def clamped_case(
 
 # ------------------------------------------------------------------ the hidden cases
 
-NOISE = {"time_series": 2e-4, "steady_state": 5e-4, "clamped_sample": 2e-9}
+NOISE = {"time_series": 2e-4, "steady_state": 2e-4, "clamped_sample": 2e-9}
 """White noise of each kind: mu for friction, metres for the sample extension s."""
 
 
-def hidden_case(rng: np.random.Generator) -> tuple[str, xr.Dataset]:
-    """One case: an effect drawn from the catalogue entries each kind can show, or
-    ``none`` (one case in four), with its data. Returns (truth, data)."""
+def hidden_case(rng: np.random.Generator, with_effect: bool) -> tuple[str, xr.Dataset]:
+    """One case: a kind of data, and an effect drawn from the catalogue entries that kind
+    can show (or ``none``), with its data. Returns (truth, data)."""
     kind = rng.choice(["time_series", "steady_state", "clamped_sample"], p=[0.45, 0.4, 0.15])
     effects = {
         "time_series": TIME_SERIES_EFFECTS,
         "steady_state": STEADY_EFFECTS,
         "clamped_sample": CLAMPED_EFFECTS,
     }[kind]
-    effect = "none" if rng.random() < 0.25 else str(rng.choice(effects))
+    effect = str(rng.choice(effects)) if with_effect else "none"
     noise = NOISE[kind] * rng.uniform(0.7, 1.4)
     maker = {
         "time_series": time_series_case,
