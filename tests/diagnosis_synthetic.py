@@ -151,7 +151,11 @@ def _area(velocity: np.ndarray, m: float, memory: float, effect: str, extra: flo
     tau = 1e-3
     if effect == "velocity_saturation":
         ratio = extra * velocity / memory  # tau_m / <phi>, extra = tau_m
-        return 1.0 + m * np.exp(ratio) * exp1(ratio)
+        small = np.minimum(ratio, 50.0)  # e^x E_1(x) ~ (1 - 1/x + 2/x^2) / x beyond
+        scaled = np.where(
+            ratio < 50.0, np.exp(small) * exp1(small), (1 - 1 / ratio + 2 / ratio**2) / ratio
+        )
+        return 1.0 + m * scaled
     mean_age = memory / (velocity + (extra if effect == "state_velocity_cutoff" else 0.0))
     return 1.0 + m * (np.log(mean_age / tau) - EULER_GAMMA)
 
