@@ -81,3 +81,24 @@ def reduced_barrier_height(
     return zero_stress_barrier(threshold_stress, block_size, shear_modulus) / (
         BOLTZMANN * temperature
     )
+
+
+def lattice_reverse_barrier(s: ArrayLike, barrier: str, u: float, u_elastic: float) -> NDArray:
+    """Reduced barrier [k_B T] of a reverse hop on Persson's periodic characteristic.
+
+    With back jumps (physics.md section 5, ``back_jumps``; 001 after Eq. 33) a block's
+    pinned branches are one period rho~_max apart: at drive phase s in [0, 1] the upper
+    branch carries reduced stress s and the lower one s - 1. The forward hop (upper to
+    lower) has the barrier u f(s) of the law; the reverse hop crosses the same saddle
+    from the lower branch, whose elastic energy is lower by u_elastic (s - 1/2) (the
+    Maxwell point is s = 1/2), so its barrier is u f(s) + u_elastic (s - 1/2). Here
+    u_elastic = k1 rho~_max^2 / k_B T (= u for k1 = E_J b).
+    """
+    s = np.asarray(s, dtype=float)
+    return u * barrier_law(barrier)(s) + u_elastic * (s - 0.5)
+
+
+def lattice_barrier_floor(barrier: str, u: float, u_elastic: float) -> float:
+    """Smallest reverse-hop barrier [k_B T] over the period (negative: no consistent lattice)."""
+    s = np.linspace(0.0, 1.0, 4097)
+    return float(np.min(lattice_reverse_barrier(s, barrier, u, u_elastic)))

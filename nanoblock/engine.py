@@ -27,7 +27,7 @@ from nanoblock.kernels.rng import seed_streams
 from nanoblock.kernels.stepper import advance_to_sample
 from nanoblock.params import Scenario, ScenarioError, resolve_seed
 from nanoblock.store import SAMPLES, SNAPSHOTS, RunStore, dataset
-from nanoblock.tables import hazard_table
+from nanoblock.tables import hazard_table, lattice_hazard_table
 from nanoblock.theory.meanfield import MeanFieldJoint, sample_q_stationary
 
 TRANSIENT_FORCE_STEP = 0.005
@@ -46,10 +46,9 @@ def kernel_parameters(scenario: Scenario) -> np.ndarray:
     params = np.zeros(1, dtype=PARAMS)
     record = params[0]
     record["omega_a"] = joint.attempt_frequency
-    record["rho_max"] = joint.rho_max
-    record["sigma_a"] = joint.threshold_stress
     record["kappa"] = kappa
     record["slip_chain"] = 1 if joint.slip == "chain" else 0
+    record["hop_period"] = 1.0 if joint.back_jumps else 0.0
     for name, neighbours in (("eta_free", 0), ("eta_end", 1), ("eta_interior", 2)):
         record[name] = landing_overshoot(omega1_sq * (1 + neighbours * kappa), joint.damping)
     record["omega1_sq"] = omega1_sq
@@ -57,6 +56,8 @@ def kernel_parameters(scenario: Scenario) -> np.ndarray:
     record["memory_length"] = interface.memory_length
     record["aging_m"] = interface.aging_m
     record["aging_time"] = interface.aging_time
+    cutoff = interface.state_cutoff_velocity
+    record["state_cutoff"] = 0.0 if cutoff is None else cutoff
     record["contact_area"] = interface.real_area / interface.n_contacts
     record["stiffness"] = scenario.loading.stiffness
     record["step_slip"] = scenario.step_slip
@@ -76,7 +77,9 @@ def protocol_table(scenario: Scenario) -> np.ndarray:
 
 
 def mean_field_joint(scenario: Scenario) -> MeanFieldJoint:
-    """The joint as seen by the analytic mean-field theory (001/Eqs. 24-30)."""
+    """The joint as seen by the analytic mean-field theory (001/Eqs. 24-30), with the
+    catalogue options the theory honours (back jumps, strength classes; softening is
+    already in the resolved sigma_a)."""
     joint = scenario.joint
     return MeanFieldJoint(
         block_size=joint.block_size,
@@ -86,7 +89,26 @@ def mean_field_joint(scenario: Scenario) -> MeanFieldJoint:
         attempt_frequency=joint.attempt_frequency,
         temperature=joint.temperature,
         barrier=joint.barrier,
+        back_jumps=joint.back_jumps,
+        threshold_spread=joint.threshold_spread,
+        strength_classes=joint.strength_classes,
     )
+
+
+def strength_classes(scenario: Scenario) -> np.ndarray:
+    """``strength[k] = (sigma_a, rho~_max)`` [Pa, m] of each strength class
+    (:mod:`nanoblock.kernels.layout`; one class without a threshold spread)."""
+    members = mean_field_joint(scenario).classes()
+    return np.array([(member.threshold_stress, member.rho_max) for member in members])
+
+
+def hazard_tables(scenario: Scenario) -> np.ndarray:
+    """``tables[k]``: the packed hazard table of each strength class (with back jumps, the
+    forward and reverse tables of :func:`nanoblock.tables.lattice_hazard_table`)."""
+    members = mean_field_joint(scenario).classes()
+    if scenario.joint.back_jumps:
+        return np.vstack([lattice_hazard_table(m.barrier, m.u, m.u_elastic) for m in members])
+    return np.vstack([hazard_table(m.barrier, m.u) for m in members])
 
 
 @dataclass
@@ -131,14 +153,20 @@ def _chain_stretch(stress: np.ndarray, kappa: float) -> np.ndarray:
     return solve_banded((1, 1), bands, stress.T).T
 
 
-def initial_state(scenario: Scenario, params: np.ndarray) -> InterfaceState:
+def initial_state(
+    scenario: Scenario, params: np.ndarray, strength: np.ndarray | None = None
+) -> InterfaceState:
     """The interface at t = 0: unloaded (all blocks at zero stress, newborn contacts) or
-    steady (stresses from Q_st at the first velocity, 001/Eq. 27; contact ages and
-    remaining lifetimes from the stationary renewal process, both Exp with means D0/V
-    and D0)."""
+    steady (stresses from the stationary mean-field state at the first velocity, Q_st of
+    001/Eq. 27 per strength class, or the two-branch state with back jumps; contact ages
+    and remaining lifetimes from the stationary renewal process, both Exp, with means
+    D0 / V times the ageing-clock rate, i.e. D0 / (V + v_theta) with a state cutoff, and
+    D0). ``strength``: :func:`strength_classes`, computed if not given."""
     seed = scenario.run.seed
     interface = scenario.interface
     shape = (interface.n_contacts, interface.blocks_per_contact)
+    strength = strength_classes(scenario) if strength is None else strength
+    n_classes = strength.shape[0]
     contact_seed, setup_seed = np.random.SeedSequence(seed).spawn(2)
     streams = seed_streams(int(contact_seed.generate_state(1)[0]), shape[0])
     setup = np.random.default_rng(setup_seed)
@@ -150,10 +178,14 @@ def initial_state(scenario: Scenario, params: np.ndarray) -> InterfaceState:
         age = np.zeros(shape[0])
     else:
         velocity = scenario.loading.first_velocity
-        joint = mean_field_joint(scenario)
-        rho = sample_q_stationary(shape[0] * shape[1], velocity, joint, setup)
-        y = _chain_stretch(rho.reshape(shape) / joint.rho_max, float(params[0]["kappa"]))
-        age = (memory / velocity) * setup.standard_exponential(shape[0])
+        y = np.empty(shape)
+        for k, member in enumerate(mean_field_joint(scenario).classes()):
+            rows = y[k::n_classes]
+            rho = sample_q_stationary(rows.size, velocity, member, setup)
+            rows[:] = rho.reshape(rows.shape) / member.rho_max
+        y = _chain_stretch(y, float(params[0]["kappa"]))
+        clock = interface.ageing_rate(velocity)
+        age = (memory / velocity) * clock * setup.standard_exponential(shape[0])
         if not np.isfinite(memory):
             age = np.zeros(shape[0])
     slip = np.zeros(shape[0])
@@ -162,8 +194,9 @@ def initial_state(scenario: Scenario, params: np.ndarray) -> InterfaceState:
     slider = state.slider[0]
     slider["velocity"] = scenario.loading.steps[0].load_velocity
     area = total_contact_area(age, params[0])
-    slider["force"] = area * scenario.joint.threshold_stress * y.mean()
-    slider["stiffness"] = area * scenario.joint.threshold_stress / scenario.joint.rho_max
+    forces = (area * sigma_a * y[k::n_classes].mean() for k, (sigma_a, _) in enumerate(strength))
+    slider["force"] = sum(forces) / n_classes
+    slider["stiffness"] = area * strength[0, 0] / strength[0, 1]
     if np.isfinite(scenario.loading.stiffness):
         # start in balance: the drive spring already carries the initial interface force
         slider["load_point"] = 0.0
@@ -188,10 +221,11 @@ class Run:
             raise ScenarioError("run.seed must be resolved before a run (see resolve_seed)")
         self.scenario = scenario
         self.params = kernel_parameters(scenario)
-        self.table = hazard_table(scenario.joint.barrier, scenario.joint.u)
+        self.strength = strength_classes(scenario)
+        self.tables = hazard_tables(scenario)
         self.protocol = protocol_table(scenario)
         self.times = sample_times(scenario)
-        self.state = initial_state(scenario, self.params)
+        self.state = initial_state(scenario, self.params, self.strength)
         self.scratch = np.zeros((2, scenario.interface.n_contacts))
         self.next_sample = 0
         self.snapshots_taken = 0
@@ -213,7 +247,8 @@ class Run:
             s.events,
             self.scratch,
             self.params,
-            self.table,
+            self.strength,
+            self.tables,
             self.protocol,
         )
         slider = s.slider[0]
@@ -243,8 +278,9 @@ class Run:
         s = self.state
         record = self.params[0]
         self.snapshots_taken += 1
-        stress = reduced_stresses(s.y, float(record["kappa"])) * float(record["sigma_a"])
-        position = float(s.slider[0]["position"]) - s.y * float(record["rho_max"])
+        sigma_a, rho_max = self.strength[np.arange(s.y.shape[0]) % self.strength.shape[0]].T
+        stress = reduced_stresses(s.y, float(record["kappa"])) * sigma_a[:, None]
+        position = float(s.slider[0]["position"]) - s.y * rho_max[:, None]
         return {
             "snapshot_time": np.array([self.times[self.next_sample - 1]]),
             "block_stress": stress[None],

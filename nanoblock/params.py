@@ -18,7 +18,12 @@ from typing import Annotated, Any, Literal, Self
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from nanoblock.barriers import BARRIERS, reduced_barrier_height
+from nanoblock.barriers import (
+    BARRIERS,
+    BOLTZMANN,
+    lattice_barrier_floor,
+    reduced_barrier_height,
+)
 
 Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
@@ -26,6 +31,9 @@ PositiveOrInf = Annotated[float, Field(gt=0)]  # +inf allowed and meaningful, Na
 
 JOINT_DENSITY = 1.0e3
 """Mass density [kg/m^3] used for the default block mass m_b = rho b^3."""
+
+STRENGTH_CLASSES = 8
+"""Default number of strength classes when ``joint.threshold_spread`` > 0."""
 
 
 class ScenarioError(ValueError):
@@ -53,6 +61,20 @@ class Joint(_Section):
     that makes an isolated interior block critically damped (its slip ends at zero force,
     the chain analogue of the mean-field reset), and omega_a = c_J / b with
     c_J = (E_J b^3 / m_b)^(1/2).
+
+    Catalogue extensions (physics.md section 5), all off by default:
+
+    - ``back_jumps``: blocks live on Persson's periodic characteristic and hop one period
+      rho~_max forward (x -> x - 1) or back (x -> x + 1), thermally and in detailed
+      balance (:func:`nanoblock.barriers.lattice_reverse_barrier`); mean-field joint only.
+    - ``threshold_spread``: sigma_a lognormal across contacts with this log-standard
+      deviation and mean ``threshold_stress``, discretised into ``strength_classes``
+      equal-probability classes (:func:`nanoblock.theory.meanfield.strength_factors`).
+    - ``glass_temperature`` T_g: ``threshold_stress`` is given at
+      ``reference_temperature`` T_ref and softens linearly to zero at T_g,
+      sigma_a(T) = sigma_a(T_ref) (T_g - T) / (T_g - T_ref) (001/Figs. 9, 12). The
+      resolved joint holds sigma_a(T) with ``reference_temperature`` = T, so that it
+      reproduces the run on its own; rho~_max, u and the default step slip use sigma_a(T).
     """
 
     block_size: Positive = Field(description="block edge b [m]")
@@ -66,9 +88,23 @@ class Joint(_Section):
     temperature: Positive = Field(description="temperature T [K]")
     barrier: Literal[tuple(BARRIERS)] = Field("persson", description="barrier law")  # type: ignore[valid-type]
     slip: Literal["chain", "reset"] = Field("chain", description="slip rule")
+    back_jumps: bool = Field(False, description="reverse hops in detailed balance")
+    threshold_spread: NonNegative = Field(
+        0.0, description="log-standard deviation of sigma_a across contacts"
+    )
+    strength_classes: int | None = Field(
+        None, ge=1, description="strength classes; default 1 without spread, else 8"
+    )
+    glass_temperature: PositiveOrInf = Field(
+        math.inf, description="T_g [K] of the softening law; inf = no softening"
+    )
+    reference_temperature: Positive | None = Field(
+        None, description="T_ref [K] at which threshold_stress is given (with T_g)"
+    )
 
     @model_validator(mode="after")
     def _resolve(self) -> Self:
+        self._soften()
         b, e_j = self.block_size, self.shear_modulus
         k1 = self.k1 if self.k1 is not None else e_j * b
         k2 = self.k2 if self.k2 is not None else e_j * b
@@ -89,7 +125,55 @@ class Joint(_Section):
             ("attempt_frequency", omega),
         ):
             object.__setattr__(self, name, float(value))
+        if self.strength_classes is None:
+            classes = STRENGTH_CLASSES if self.threshold_spread > 0.0 else 1
+            object.__setattr__(self, "strength_classes", classes)
+        if self.back_jumps:
+            self._check_back_jumps()
         return self
+
+    def _soften(self) -> None:
+        """Replace sigma_a(T_ref) by sigma_a(T) of the linear softening law near T_g."""
+        t_g, t_ref, t = self.glass_temperature, self.reference_temperature, self.temperature
+        if math.isinf(t_g):
+            if t_ref is not None:
+                raise ValueError(
+                    "reference_temperature has no effect without a finite glass_temperature"
+                )
+            return
+        if t_ref is None:
+            raise ValueError(
+                "glass_temperature needs reference_temperature (K), the temperature at "
+                "which threshold_stress is given"
+            )
+        for name, value in (("temperature", t), ("reference_temperature", t_ref)):
+            if not value < t_g:
+                raise ValueError(
+                    f"{name} = {value!r} K must be below glass_temperature = {t_g!r} K "
+                    f"(allowed range (0, {t_g!r}))"
+                )
+        softened = self.threshold_stress * ((t_g - t) / (t_g - t_ref))  # exact when t = t_ref
+        object.__setattr__(self, "threshold_stress", float(softened))
+        object.__setattr__(self, "reference_temperature", float(t))
+
+    def _check_back_jumps(self) -> None:
+        if self.slip != "reset" or self.k2 != 0.0:
+            raise ValueError(
+                "back_jumps = true is defined for the mean-field joint only: it needs "
+                f"slip = 'reset' and k2 = 0 (got slip = {self.slip!r}, k2 = {self.k2!r})"
+            )
+        floor = lattice_barrier_floor(self.barrier, self.u, self.u_elastic)
+        if floor < 0.0:
+            raise ValueError(
+                f"back_jumps = true: the reverse-hop barrier u f(s) + u_el (s - 1/2) falls to "
+                f"{floor:.3g} k_B T < 0 (u = {self.u:.4g}, u_el = k1 rho~_max^2 / k_B T = "
+                f"{self.u_elastic:.4g}); it is non-negative for k1 >= E_J b / 2 (Persson)"
+            )
+
+    @property
+    def u_elastic(self) -> float:
+        """u_el = k1 rho~_max^2 / k_B T: elastic energy of one period of the characteristic."""
+        return self.k1 * self.rho_max**2 / (BOLTZMANN * self.temperature)
 
     @property
     def rho_max(self) -> float:
@@ -105,7 +189,17 @@ class Joint(_Section):
 
 
 class Interface(_Section):
-    """The multicontact interface: contacts as agents that age and are renewed (001/Eqs. 1-5)."""
+    """The multicontact interface: contacts as agents that age and are renewed (001/Eqs. 1-5).
+
+    Catalogue extensions (physics.md section 5), all off by default:
+
+    - ``state_cutoff_velocity`` v_theta: a contact's ageing clock runs at V / (V + v_theta)
+      (V: slider velocity), so contacts do not age at rest and the steady mean age is
+      D0 / (V + v_theta): with theta = v_theta <age> / D0 this is 000/Eq. 7.
+    - ``memory_length_exponent`` n with ``reference_force`` W_ref: D0(W) =
+      ``memory_length`` (W / W_ref)^n (000/Fig. 3 caption). The resolved interface holds
+      D0(W) with ``reference_force`` = W, so that it reproduces the run on its own.
+    """
 
     normal_force: Positive = Field(description="normal load W [N]")
     hardness: Positive = Field(description="mean contact pressure p [Pa]; Sigma_r = W / p")
@@ -116,6 +210,39 @@ class Interface(_Section):
     )
     aging_m: NonNegative = Field(0.0, description="logarithmic area growth m (001/Eq. 5)")
     aging_time: Positive = Field(1e-3, description="creep onset time tau_m [s] (001/Eq. 5)")
+    state_cutoff_velocity: PositiveOrInf | None = Field(
+        None, description="v_theta [m/s] of 000/Eq. 7; absent = the clock always runs"
+    )
+    memory_length_exponent: NonNegative = Field(
+        0.0, description="n in D0(W) = memory_length (W / W_ref)^n"
+    )
+    reference_force: Positive | None = Field(
+        None, description="W_ref [N] at which memory_length is given (with n > 0)"
+    )
+
+    @model_validator(mode="after")
+    def _load_dependent_memory(self) -> Self:
+        n, reference = self.memory_length_exponent, self.reference_force
+        if n == 0.0:
+            if reference is not None:
+                raise ValueError("reference_force has no effect with memory_length_exponent = 0")
+            return self
+        if reference is None:
+            raise ValueError(
+                "memory_length_exponent > 0 needs reference_force (N), the normal load "
+                "at which memory_length is given"
+            )
+        scaled = self.memory_length * (self.normal_force / reference) ** n
+        object.__setattr__(self, "memory_length", float(scaled))
+        object.__setattr__(self, "reference_force", float(self.normal_force))
+        return self
+
+    def ageing_rate(self, velocity: float) -> float:
+        """Rate of a contact's ageing clock at slider velocity V [m/s]: 1, or V / (V +
+        v_theta) with a state cutoff (000/Eq. 7)."""
+        if self.state_cutoff_velocity is None:
+            return 1.0
+        return abs(velocity) / (abs(velocity) + self.state_cutoff_velocity)
 
     @property
     def real_area(self) -> float:
@@ -196,6 +323,17 @@ class Scenario(_Section):
     loading: Loading
     run: Run
 
+    @model_validator(mode="after")
+    def _classes_fill_evenly(self) -> Self:
+        n_contacts, classes = self.interface.n_contacts, self.joint.strength_classes
+        if n_contacts % classes:
+            raise ValueError(
+                f"interface.n_contacts = {n_contacts} must be a multiple of "
+                f"joint.strength_classes = {classes}: every strength class holds the same "
+                "number of contacts"
+            )
+        return self
+
     @property
     def total_time(self) -> float:
         """Duration of the whole protocol [s]."""
@@ -232,7 +370,7 @@ def _format_errors(error: ValidationError, source: str) -> str:
         message = item["msg"].removeprefix("Value error, ")
         bounds = item.get("ctx") or {}
         allowed = _allowed_range(bounds)
-        lines.append(f"  {key}{shown}: {message}{allowed}")
+        lines.append(f"  {key}{shown}: {message}{allowed}" if key else f"  {message}")
     return "\n".join(lines)
 
 

@@ -6,22 +6,28 @@ R(x) = int_0^x exp(-u f(s)) ds (001/Eq. 24 integrated along the drive; f from
 :mod:`nanoblock.barriers`). The table holds g(x) = ln(R(x) / x) and g'(x) on a uniform
 grid, for cubic Hermite evaluation to ~1e-14 relative over the whole range of R (which
 spans e^-u to 1), plus a coarse inverse table that seeds Newton's method for R^-1.
+With back jumps a second table, for negative stresses, follows the first
+(:func:`lattice_hazard_table`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
-from nanoblock.barriers import barrier_law
+from nanoblock.barriers import barrier_law, lattice_reverse_barrier
 
 HEADER = 8
-"""Scalars before the arrays: n_nodes, n_inverse, ln R(1/n), ln R(1), g(0), 0, 0, 0."""
+"""Scalars before the arrays: n_nodes, n_inverse, ln R(1/n), ln R(1), g(0), the offset of
+the table for negative stresses (0: the same table, R odd), 0, 0."""
+
+NEGATIVE_OFFSET = 5
+"""Header slot of the offset of the negative-stress table."""
 
 _GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(10)
 
-
-def _log_rate(barrier: str, u: float, x: np.ndarray) -> np.ndarray:
-    return -u * barrier_law(barrier)(x)
+LogRate = Callable[[np.ndarray], np.ndarray]
 
 
 def hazard_table(barrier: str, u: float, n_nodes: int = 4096, n_inverse: int = 2048) -> np.ndarray:
@@ -33,21 +39,46 @@ def hazard_table(barrier: str, u: float, n_nodes: int = 4096, n_inverse: int = 2
     """
     if not (np.isfinite(u) and u > 0):
         raise ValueError(f"reduced barrier u = {u!r} must be finite and > 0")
+    law = barrier_law(barrier)
+    return _table(lambda x: -u * law(x), n_nodes, n_inverse)
+
+
+def lattice_hazard_table(
+    barrier: str, u: float, u_elastic: float, n_nodes: int = 4096, n_inverse: int = 2048
+) -> np.ndarray:
+    """Forward and reverse hazard tables of a joint with back jumps, packed end to end.
+
+    x >= 0 (upper branch): the forward rate exp(-u f(x)) of :func:`hazard_table`.
+    x = -t < 0 (lower branch, upper branch at stress 1 - t): the reverse rate
+    exp(-[u f(1 - t) + u_el (1/2 - t)]) of :func:`nanoblock.barriers.lattice_reverse_barrier`,
+    tabulated in t = |x| in the same layout; header slot :data:`NEGATIVE_OFFSET` of the
+    first table points to the second.
+    """
+    forward = hazard_table(barrier, u, n_nodes, n_inverse)
+    reverse = _table(
+        lambda t: -lattice_reverse_barrier(1.0 - t, barrier, u, u_elastic), n_nodes, n_inverse
+    )
+    forward[NEGATIVE_OFFSET] = forward.size
+    return np.concatenate((forward, reverse))
+
+
+def _table(log_rate: LogRate, n_nodes: int, n_inverse: int) -> np.ndarray:
+    """The packed table of the reduced rate exp(log_rate(x)) on x in [0, 1]."""
     nodes = np.linspace(0.0, 1.0, n_nodes + 1)
     left, right = nodes[:-1, None], nodes[1:, None]
     points = 0.5 * (left + right) + 0.5 * (right - left) * _GAUSS_X[None, :]
-    pieces = (0.5 / n_nodes) * np.exp(_log_rate(barrier, u, points)) @ _GAUSS_W
+    pieces = (0.5 / n_nodes) * np.exp(log_rate(points)) @ _GAUSS_W
     cumulative = np.concatenate(([0.0], np.cumsum(pieces)))
 
     g = np.empty(n_nodes + 1)
     slope = np.empty(n_nodes + 1)
-    g[0] = _log_rate(barrier, u, np.array([0.0]))[0]
+    g[0] = log_rate(np.array([0.0]))[0]
     g[1:] = np.log(cumulative[1:] / nodes[1:])
     # g'(x) = r(x) / R(x) - 1 / x; at x = 0 the limit is (ln r)'(0) / 2 (R = x r(0)(1 + ...)).
     step = 1e-4
-    near_zero = _log_rate(barrier, u, np.array([0.0, step, 2 * step]))
+    near_zero = log_rate(np.array([0.0, step, 2 * step]))
     slope[0] = 0.5 * (-3 * near_zero[0] + 4 * near_zero[1] - near_zero[2]) / (2 * step)
-    slope[1:] = np.exp(_log_rate(barrier, u, nodes[1:])) / cumulative[1:] - 1.0 / nodes[1:]
+    slope[1:] = np.exp(log_rate(nodes[1:])) / cumulative[1:] - 1.0 / nodes[1:]
 
     log_cumulative = np.log(cumulative[1:])
     inverse_levels = np.linspace(log_cumulative[0], log_cumulative[-1], n_inverse + 1)

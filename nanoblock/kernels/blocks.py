@@ -16,9 +16,9 @@ import numpy as np
 from nanoblock.kernels._jit import kernel
 from nanoblock.kernels.hazard import (
     hazard_between,
-    inverse_cumulative,
     rate,
     signed_cumulative,
+    signed_inverse,
 )
 from nanoblock.kernels.rng import standard_exponential
 
@@ -56,8 +56,7 @@ def next_depinning(
             x_fire = x0 + direction * need * abs(x_rate) / rate(x0, table)
         else:
             level = signed_cumulative(x0, table) + direction * need * abs(x_rate)
-            magnitude = inverse_cumulative(abs(level), table)
-            x_fire = magnitude if level >= 0.0 else -magnitude
+            x_fire = signed_inverse(level, table)
         t_fire = (x_fire - x0) / x_rate
         t_fire = min(max(t_fire, 0.0), horizon)
         return t_fire, x_fire, 0.0
@@ -77,14 +76,18 @@ def advance_free_blocks(
     omega_a: float,
     table: np.ndarray,
     stream: np.ndarray,
+    period: float = 0.0,
 ) -> int:
     """Advance independent blocks (k2 = 0, reduced stress x = y) over one slider segment.
 
     The slider first jumps by ``jump`` (reduced, instantaneous), then slides for
     ``duration`` [s] at ``x_rate`` [1/s]. A depinned block lands at x = -eta x_depin
     (``eta`` = 0: the mean-field reset of 001/Fig. 14; eta > 0: the underdamped landing
-    of 001/Eq. 21) and draws a fresh Exp(1) threshold from the contact's ``stream``.
-    Returns the number of depinnings.
+    of 001/Eq. 21), or, with back jumps (``period`` = 1), hops one period of the
+    characteristic towards zero stress, x -> x - sign(x) (forward from the upper branch,
+    back from the lower one; :func:`nanoblock.barriers.lattice_reverse_barrier`). It then
+    draws a fresh Exp(1) threshold from the contact's ``stream``. Returns the number of
+    depinnings.
     """
     events = 0
     for i in range(y.shape[0]):  # i = blocks of one contact
@@ -97,7 +100,7 @@ def advance_free_blocks(
                 h[i] = h_left
                 break
             events += 1
-            x = -eta * x_at
+            x = x_at - np.copysign(period, x_at) if period > 0.0 else -eta * x_at
             h[i] = standard_exponential(stream)
             remaining -= t
         y[i] = x

@@ -5,7 +5,13 @@ hazard; per contact ``age[c]`` [s], ``slip[c]`` slider slip since birth [m],
 ``lifetime[c]`` slip at which it dies [m] (Exp(D0), so that in steady sliding the mean
 age is D0 / V: the ageing law, 001/Eq. 3), ``events[c]`` cumulative depinnings and
 ``streams[c]`` its random stream. A contact's force is its area
-Sigma_0 [1 + m ln(1 + age / tau_m)] (001/Eq. 5) times its blocks' mean stress.
+Sigma_0 [1 + m ln(1 + age / tau_m)] (001/Eq. 5) times its blocks' mean stress, in units
+of its strength class's sigma_a (``strength[c mod K]``, see :mod:`.layout`).
+
+The age is the contact's ageing clock. It runs at rate 1, or, with a state cutoff
+velocity v_theta, at V / (V + v_theta) (V: slider velocity): contacts then do not age at
+rest and in steady sliding the mean age is D0 / (V + v_theta), which with
+theta = v_theta <age> / D0 is the state law of 000/Eq. 7.
 """
 
 from __future__ import annotations
@@ -39,21 +45,54 @@ def _advance_blocks(y_row, h_row, jump, x_rate, duration, params, table, stream)
     if params.kappa == 0.0 or y_row.shape[0] == 1:
         eta = params.eta_free if params.slip_chain == 1 else 0.0
         return advance_free_blocks(
-            y_row, h_row, jump, x_rate, duration, eta, params.omega_a, table, stream
+            y_row,
+            h_row,
+            jump,
+            x_rate,
+            duration,
+            eta,
+            params.omega_a,
+            table,
+            stream,
+            params.hop_period,
         )
     return advance_chain(y_row, h_row, jump, x_rate, duration, params, table, stream)
 
 
 @kernel
+def ageing_rate(velocity: float, params) -> float:
+    """Rate of the ageing clock at slider velocity V [m/s]: 1, or V / (V + v_theta)."""
+    if params.state_cutoff == 0.0:
+        return 1.0
+    return abs(velocity) / (abs(velocity) + params.state_cutoff)
+
+
+@kernel
 def advance_contact(
-    c, y, h, age, slip, lifetime, events, streams, jump, velocity, duration, params, table
+    c,
+    y,
+    h,
+    age,
+    slip,
+    lifetime,
+    events,
+    streams,
+    jump,
+    velocity,
+    duration,
+    params,
+    strength,
+    tables,
 ) -> None:
     """Advance contact c: slider jump ``jump`` [m], then ``duration`` [s] at ``velocity``.
 
     The contact dies when its slip since birth reaches its lifetime, at the exact instant
     on the slider path, and the fresh contact takes the rest of the segment.
     """
-    rho = params.rho_max
+    k = c % strength.shape[0]
+    rho = strength[k, 1]
+    table = tables[k]
+    clock = ageing_rate(velocity, params)
     remaining = duration
     pending = jump
     while True:
@@ -70,7 +109,7 @@ def advance_contact(
             y[c], h[c], pending / rho, velocity / rho, span, params, table, streams[c]
         )
         slip[c] += pending + velocity * span
-        age[c] += span
+        age[c] += clock * span
         remaining -= span
         pending = 0.0
         if not dies:
@@ -95,21 +134,37 @@ def advance_contacts(
     velocity,
     duration,
     param_array,
-    table,
+    strength,
+    tables,
 ) -> None:
     """Advance every contact (in parallel; each has its own stream) and store its force
     ``force[c]`` [N] and elastic stiffness ``stiffness[c]`` = dF_c / dX [N/m].
 
     ``param_array`` is the one-element PARAMS array (records cannot enter a parallel loop
-    by value)."""
+    by value); ``strength`` and ``tables`` hold each strength class's (sigma_a, rho~_max)
+    and hazard table."""
     for c in prange(y.shape[0]):
         params = param_array[0]
         advance_contact(
-            c, y, h, age, slip, lifetime, events, streams, jump, velocity, duration, params, table
+            c,
+            y,
+            h,
+            age,
+            slip,
+            lifetime,
+            events,
+            streams,
+            jump,
+            velocity,
+            duration,
+            params,
+            strength,
+            tables,
         )
         area = contact_area(age[c], params)
-        force[c] = area * params.sigma_a * np.mean(y[c])
-        stiffness[c] = area * params.sigma_a / params.rho_max
+        sigma_a, rho_max = strength[c % strength.shape[0]]
+        force[c] = area * sigma_a * np.mean(y[c])
+        stiffness[c] = area * sigma_a / rho_max
 
 
 @kernel

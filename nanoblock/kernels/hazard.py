@@ -1,8 +1,11 @@
 """Exact cumulative hazard of thermal escape along a linear stress ramp (001/Eq. 24).
 
-Reduced stress x = sigma / sigma_a, reduced rate r(x) = exp(-u f(|x|)) (escape rate over
-omega_a), cumulative R(x) = int_0^x r (odd in x). All functions read the packed table of
-:func:`nanoblock.tables.hazard_table`; they allocate nothing and trust their inputs.
+Reduced stress x = sigma / sigma_a, reduced rate r(x) (escape rate over omega_a),
+cumulative R(x) = int_0^x r. In the base model r(x) = exp(-u f(|x|)) and R is odd; with
+back jumps (:func:`nanoblock.tables.lattice_hazard_table`) negative stresses have their
+own rate, read from a second table packed behind the first (header slot 5 holds its
+offset, 0 when both signs share one table). All functions read the packed tables of
+:mod:`nanoblock.tables`; they allocate nothing and trust their inputs.
 """
 
 from __future__ import annotations
@@ -12,20 +15,29 @@ import numpy as np
 from nanoblock.kernels._jit import kernel
 
 _HEADER = 8
+_NEGATIVE = 5  # header slot: offset of the table for negative stresses (0: the same)
 
 
 @kernel
-def _hermite(x: float, table: np.ndarray) -> tuple[float, float]:
-    """g(x) = ln(R(x) / x) and g'(x) for x in [0, 1] by cubic Hermite interpolation."""
-    n_nodes = int(table[0])
+def _side(x: float, table: np.ndarray) -> int:
+    """Start of the table that serves reduced stress x (the second one for x < 0)."""
+    return int(table[_NEGATIVE]) if x < 0.0 else 0
+
+
+@kernel
+def _hermite(x: float, table: np.ndarray, start: int) -> tuple[float, float]:
+    """g(x) = ln(R(x) / x) and g'(x) for x in [0, 1] by cubic Hermite interpolation, from
+    the table that begins at ``start``."""
+    n_nodes = int(table[start])
     position = x * n_nodes
     k = min(int(position), n_nodes - 1)
     s = position - k
     h = 1.0 / n_nodes
-    g0 = table[_HEADER + k]
-    g1 = table[_HEADER + k + 1]
-    d0 = table[_HEADER + n_nodes + 1 + k] * h
-    d1 = table[_HEADER + n_nodes + 2 + k] * h
+    base = start + _HEADER
+    g0 = table[base + k]
+    g1 = table[base + k + 1]
+    d0 = table[base + n_nodes + 1 + k] * h
+    d1 = table[base + n_nodes + 2 + k] * h
     s2 = s * s
     s3 = s2 * s
     value = (
@@ -39,27 +51,32 @@ def _hermite(x: float, table: np.ndarray) -> tuple[float, float]:
 
 
 @kernel
-def cumulative(x: float, table: np.ndarray) -> float:
-    """R(x) = int_0^x r(s) ds for x in [0, 1] (dimensionless)."""
+def _cumulative(x: float, table: np.ndarray, start: int) -> float:
     if x <= 0.0:
         return 0.0
-    value, _ = _hermite(x, table)
+    value, _ = _hermite(x, table, start)
     return x * np.exp(value)
 
 
 @kernel
+def cumulative(x: float, table: np.ndarray) -> float:
+    """R(x) = int_0^x r(s) ds for x in [0, 1] (dimensionless)."""
+    return _cumulative(x, table, 0)
+
+
+@kernel
 def signed_cumulative(x: float, table: np.ndarray) -> float:
-    """R(x) for x in [-1, 1], odd in x (escape follows the sign of the stress)."""
+    """R(x) for x in [-1, 1] (odd in x in the base model: escape follows the stress)."""
     if x < 0.0:
-        return -cumulative(-x, table)
-    return cumulative(x, table)
+        return -_cumulative(-x, table, _side(x, table))
+    return _cumulative(x, table, 0)
 
 
 @kernel
 def rate(x: float, table: np.ndarray) -> float:
-    """Reduced escape rate r(|x|) = exp(-u f(|x|)) for x in [-1, 1]."""
+    """Reduced escape rate r(x) for x in [-1, 1] (exp(-u f(|x|)) in the base model)."""
     magnitude = abs(x)
-    value, slope = _hermite(magnitude, table)
+    value, slope = _hermite(magnitude, table, _side(x, table))
     if magnitude == 0.0:
         return np.exp(value)
     return np.exp(value) * (1.0 + magnitude * slope)
@@ -68,11 +85,24 @@ def rate(x: float, table: np.ndarray) -> float:
 @kernel
 def inverse_cumulative(level: float, table: np.ndarray) -> float:
     """x in [0, 1] with R(x) = ``level`` (0 <= level <= R(1)), by seeded Newton on ln R."""
+    return _inverse(level, table, 0)
+
+
+@kernel
+def signed_inverse(level: float, table: np.ndarray) -> float:
+    """x in [-1, 1] with signed R(x) = ``level``: the inverse of :func:`signed_cumulative`."""
+    if level < 0.0:
+        return -_inverse(-level, table, int(table[_NEGATIVE]))
+    return _inverse(level, table, 0)
+
+
+@kernel
+def _inverse(level: float, table: np.ndarray, start: int) -> float:
     if level <= 0.0:
         return 0.0
-    n_nodes = int(table[0])
-    n_inverse = int(table[1])
-    log_low, log_high, g_zero = table[2], table[3], table[4]
+    n_nodes = int(table[start])
+    n_inverse = int(table[start + 1])
+    log_low, log_high, g_zero = table[start + 2], table[start + 3], table[start + 4]
     target = np.log(level)
     if target >= log_high:
         return 1.0
@@ -82,10 +112,10 @@ def inverse_cumulative(level: float, table: np.ndarray) -> float:
         position = (target - log_low) / (log_high - log_low) * n_inverse
         k = min(int(position), n_inverse - 1)
         s = position - k
-        base = _HEADER + 2 * (n_nodes + 1)
+        base = start + _HEADER + 2 * (n_nodes + 1)
         x = (1.0 - s) * table[base + k] + s * table[base + k + 1]
     for _ in range(30):
-        value, slope = _hermite(x, table)
+        value, slope = _hermite(x, table, start)
         residual = np.log(x) + value - target
         step = residual / (1.0 / x + slope)
         updated = min(max(x - step, 0.5 * x), 1.0)
@@ -103,8 +133,9 @@ def hazard_between(
 
     The ramp goes from ``x0`` to ``x1`` in ``duration`` seconds at rate ``x_rate`` = dx/dt.
     A ramp too short for a difference of cumulatives to be accurate uses the midpoint rule
-    (relative error below 1e-10 for |x1 - x0| < 1e-6).
+    (relative error below 1e-10 for |x1 - x0| < 1e-6), unless it crosses zero stress where
+    the rate jumps (back jumps); there the cumulatives add without cancellation.
     """
-    if abs(x1 - x0) < 1e-6:
+    if abs(x1 - x0) < 1e-6 and (x0 * x1 >= 0.0 or table[_NEGATIVE] == 0.0):
         return rate(0.5 * (x0 + x1), table) * duration
     return abs(signed_cumulative(x1, table) - signed_cumulative(x0, table)) / abs(x_rate)

@@ -1,4 +1,9 @@
-"""Record layout of the scalar parameters every kernel reads (one structured array)."""
+"""Record layout of the scalar parameters every kernel reads (one structured array).
+
+Per strength class k (physics.md section 5, strength_heterogeneity) the kernels also read
+``strength[k] = (sigma_a, rho~_max)`` [Pa, m] and the hazard table ``tables[k]``;
+contact c belongs to class c mod K (K = 1 without a threshold spread).
+"""
 
 from __future__ import annotations
 
@@ -7,10 +12,9 @@ import numpy as np
 PARAMS = np.dtype(
     [
         ("omega_a", np.float64),  # attempt frequency [1/s]
-        ("rho_max", np.float64),  # b^2 sigma_a / k1 [m]: reduced stress 1 <-> this stretch
-        ("sigma_a", np.float64),  # threshold stress [Pa]
         ("kappa", np.float64),  # k2 / k1
         ("slip_chain", np.int64),  # 1: Eq. 21 dynamics, 0: reset to zero force
+        ("hop_period", np.float64),  # 1: back jumps, hops of one period x -> x - sign(x); 0: off
         ("eta_free", np.float64),  # landing overshoot of an isolated block, no neighbours
         ("eta_end", np.float64),  # the same for a chain-end block (one neighbour)
         ("eta_interior", np.float64),  # the same for an interior block (two neighbours)
@@ -19,6 +23,7 @@ PARAMS = np.dtype(
         ("memory_length", np.float64),  # D0 [m] (inf: no renewal)
         ("aging_m", np.float64),  # m of 001/Eq. 5
         ("aging_time", np.float64),  # tau_m [s]
+        ("state_cutoff", np.float64),  # v_theta [m/s] of 000/Eq. 7 (0: the clock always runs)
         ("contact_area", np.float64),  # Sigma_0 of one contact at birth [m^2]
         ("stiffness", np.float64),  # drive spring K [N/m] (inf: rigid drive)
         ("step_slip", np.float64),  # slider slip per internal step [m]

@@ -12,8 +12,9 @@ in transients a step may also change the spring force K |V_L - V| dt by at most
 per step and the prediction lags little).
 
 ``slider`` is a one-element record array of :data:`nanoblock.kernels.layout.SLIDER`;
-``protocol`` is ``(3, S + 1)``: segment start times (last column: end of protocol),
-load-point velocities and load-point positions at the segment starts.
+``strength`` and ``tables`` the strength classes of :mod:`.layout`; ``protocol`` is
+``(3, S + 1)``: segment start times (last column: end of protocol), load-point
+velocities and load-point positions at the segment starts.
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ def _balance_jump(position: float, load: float, force: float, k_int: float, para
 
 @kernel
 def _advance_interface(
-    slider, state, streams, events, scratch, param_array, table, velocity, duration
+    slider, state, streams, events, scratch, param_array, strength, tables, velocity, duration
 ) -> None:
     """Apply the pending jump, slide ``duration`` at ``velocity``, sum forces into the slider."""
     y, h, age, slip, lifetime = state
@@ -65,7 +66,8 @@ def _advance_interface(
         velocity,
         duration,
         param_array,
-        table,
+        strength,
+        tables,
     )
     s.force = np.sum(force)
     s.stiffness = np.sum(stiffness)
@@ -73,7 +75,7 @@ def _advance_interface(
 
 @kernel
 def advance_to(
-    t_stop, slider, state, streams, events, scratch, param_array, table, protocol
+    t_stop, slider, state, streams, events, scratch, param_array, strength, tables, protocol
 ) -> None:
     """Advance the interface and the slider from ``slider.time`` to ``t_stop`` [s].
 
@@ -95,7 +97,7 @@ def advance_to(
         if s.last_dt > 0.0:
             dt = min(dt, 2.0 * s.last_dt)
         _advance_interface(
-            slider, state, streams, events, scratch, param_array, table, s.velocity, dt
+            slider, state, streams, events, scratch, param_array, strength, tables, s.velocity, dt
         )
         start = s.position
         moved = s.position + s.velocity * dt
@@ -110,7 +112,7 @@ def advance_to(
 
 @kernel
 def settle(
-    slider, state, streams, events, scratch, param_array, table, max_rounds: int = 1000
+    slider, state, streams, events, scratch, param_array, strength, tables, max_rounds: int = 1000
 ) -> int:
     """Apply the pending elastic jump and iterate (depinnings it triggers) to balance.
 
@@ -120,7 +122,9 @@ def settle(
     params = param_array[0]
     s = slider[0]
     for rounds in range(1, max_rounds + 1):
-        _advance_interface(slider, state, streams, events, scratch, param_array, table, 0.0, 0.0)
+        _advance_interface(
+            slider, state, streams, events, scratch, param_array, strength, tables, 0.0, 0.0
+        )
         s.pending = _balance_jump(s.position, s.load_point, s.force, s.stiffness, params)
         s.position += s.pending
         if abs(s.pending) * s.stiffness <= _BALANCE * max(abs(s.force), 1e-300):
@@ -130,8 +134,10 @@ def settle(
 
 @kernel
 def advance_to_sample(
-    t_sample, slider, state, streams, events, scratch, param_array, table, protocol
+    t_sample, slider, state, streams, events, scratch, param_array, strength, tables, protocol
 ) -> int:
     """:func:`advance_to` ``t_sample``, then :func:`settle`: a balanced stored sample."""
-    advance_to(t_sample, slider, state, streams, events, scratch, param_array, table, protocol)
-    return settle(slider, state, streams, events, scratch, param_array, table)
+    advance_to(
+        t_sample, slider, state, streams, events, scratch, param_array, strength, tables, protocol
+    )
+    return settle(slider, state, streams, events, scratch, param_array, strength, tables)

@@ -29,19 +29,20 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Callable
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import PchipInterpolator
-from scipy.special import dawsn
+from scipy.special import dawsn, expit, ndtr, ndtri
 
 from nanoblock.barriers import (
     BARRIERS,
     BOLTZMANN,
     barrier_law,
+    lattice_barrier_floor,
     reduced_barrier_height,
     zero_stress_barrier,
 )
@@ -61,6 +62,7 @@ __all__ = [
     "steady_stress",
     "steady_stress_asymptotic",
     "steady_stress_loglaw",
+    "strength_factors",
     "survival_exponent",
 ]
 
@@ -80,6 +82,8 @@ _LOG_I_CAP = 700.0  # exp(-exp(700)) == 0: larger exponents change nothing
 _BISECTIONS = 64
 _SAMPLE_SUBCELLS = 16
 _PEAK_GRID = 4097
+_LATTICE_CELLS = 2**15
+_LATTICE_GL_X, _LATTICE_GL_W = np.polynomial.legendre.leggauss(4)
 
 
 @dataclass(frozen=True)
@@ -102,6 +106,18 @@ class MeanFieldJoint:
         Temperature T [K].
     barrier : str
         Name of the barrier law in :data:`nanoblock.barriers.BARRIERS`.
+    back_jumps : bool
+        Reverse hops in detailed balance on Persson's periodic characteristic
+        (physics.md section 5; :func:`nanoblock.barriers.lattice_reverse_barrier`):
+        :func:`steady_stress`, :func:`q_stationary` and :func:`sample_q_stationary`
+        then solve the two-branch occupancy equation instead of 001/Eq. 27.
+    threshold_spread : float
+        Log-standard deviation of sigma_a across contacts (lognormal of mean
+        ``threshold_stress``); >= 0.
+    strength_classes : int
+        Number of equal-probability strength classes that discretise the spread
+        (:func:`strength_factors`); the theory averages over them, as the simulation
+        does over its contacts.
     """
 
     block_size: float
@@ -111,11 +127,12 @@ class MeanFieldJoint:
     attempt_frequency: float
     temperature: float
     barrier: str = "persson"
+    back_jumps: bool = False
+    threshold_spread: float = 0.0
+    strength_classes: int = 1
 
     def __post_init__(self) -> None:
-        for field in fields(self):
-            if field.name == "barrier":
-                continue
+        for field in fields(self)[:6]:
             value = getattr(self, field.name)
             if not (
                 isinstance(value, numbers.Real)
@@ -131,6 +148,44 @@ class MeanFieldJoint:
             raise ValueError(
                 f"barrier must be one of {', '.join(sorted(BARRIERS))}, got {self.barrier!r}"
             )
+        if not (math.isfinite(self.threshold_spread) and self.threshold_spread >= 0.0):
+            raise ValueError(
+                f"threshold_spread must be finite and >= 0, got {self.threshold_spread!r}"
+            )
+        classes = self.strength_classes
+        if not (isinstance(classes, numbers.Integral) and classes >= 1):
+            raise ValueError(f"strength_classes must be an integer >= 1, got {classes!r}")
+        if self.back_jumps and lattice_barrier_floor(self.barrier, self.u, self.u_elastic) < 0.0:
+            raise ValueError(
+                "back_jumps: the reverse-hop barrier turns negative (k1 < E_J b / 2 for "
+                "Persson's law); no consistent periodic characteristic"
+            )
+
+    @property
+    def is_base(self) -> bool:
+        """Whether the joint is the base model of 001/Eq. 27 (one class, forward hops only)."""
+        return not self.back_jumps and self.strength_classes == 1
+
+    def classes(self) -> tuple[MeanFieldJoint, ...]:
+        """The equal-weight strength classes: joints with sigma_a times
+        :func:`strength_factors` and no spread (the joint itself when it has one class)."""
+        if self.strength_classes == 1:
+            return (self,)
+        return tuple(
+            replace(
+                self,
+                threshold_stress=self.threshold_stress * factor,
+                threshold_spread=0.0,
+                strength_classes=1,
+            )
+            for factor in strength_factors(self.threshold_spread, self.strength_classes)
+        )
+
+    @property
+    def u_elastic(self) -> float:
+        """u_el = k1 rho~_max^2 / k_B T (dimensionless): the elastic energy drop of a hop
+        across the Maxwell point of the periodic characteristic, per unit of stress."""
+        return self.k1 * self.rho_max**2 / (BOLTZMANN * self.temperature)
 
     @property
     def rho_max(self) -> float:
@@ -196,7 +251,12 @@ def _velocity(velocity: ArrayLike) -> FloatArray:
 
 
 def _log_lambda(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
-    """ln Lambda = ln(omega_a rho~_max / V) (dimensionless)."""
+    """ln Lambda = ln(omega_a rho~_max / V) (dimensionless) of a base joint (001/Eq. 27)."""
+    if not joint.is_base:
+        raise ValueError(
+            "this function is the theory of the base joint (001/Eq. 27); with back_jumps "
+            "or strength classes use steady_stress, q_stationary or sample_q_stationary"
+        )
     return math.log(joint.attempt_frequency * joint.rho_max) - np.log(_velocity(velocity))
 
 
@@ -428,7 +488,16 @@ def q_stationary(rho: ArrayLike, velocity: ArrayLike, joint: MeanFieldJoint) -> 
     -------
     ndarray
         Q_st [1/m], shape of the broadcast inputs.
+
+    With strength classes the density is the equal-weight mixture over the classes; with
+    back jumps it is the two-branch density of :func:`_lattice_solution` on
+    [-rho~_max, rho~_max].
     """
+    if not joint.is_base:
+        members = joint.classes()
+        if len(members) > 1:
+            return sum(q_stationary(rho, velocity, member) for member in members) / len(members)
+        return _lattice_density(rho, velocity, joint)
     rho_arr, v_arr = _broadcast_rho_velocity(rho, velocity)
     inside = (rho_arr >= 0.0) & (rho_arr <= joint.rho_max)
     exponent = survival_exponent(np.where(inside, rho_arr, 0.0), v_arr, joint)
@@ -494,14 +563,27 @@ def sample_q_stationary(
     Returns
     -------
     ndarray
-        Samples rho~ in [0, rho~_max] [m], shape (n,).
+        Samples rho~ in [0, rho~_max] [m] (in [-rho~_max, rho~_max] with back jumps),
+        shape (n,). With strength classes, each draw comes from a uniformly chosen class.
     """
     if np.ndim(velocity) != 0:
         raise ValueError("velocity must be a scalar [m/s]")
+    rng = np.random.default_rng(rng)
+    members = joint.classes()
+    if len(members) > 1:
+        chosen = rng.integers(len(members), size=int(n))
+        out = np.empty(int(n))
+        for k, member in enumerate(members):
+            out[chosen == k] = sample_q_stationary(int(np.sum(chosen == k)), velocity, member, rng)
+        return out
+    if joint.back_jumps:
+        phase = rng.random(int(n))
+        upper = rng.random(int(n)) < _upper_occupancy(phase, float(velocity), joint)
+        return np.where(upper, phase, phase - 1.0) * joint.rho_max
     x_grid, cdf = _cdf_table(float(velocity), joint)
     keep = np.concatenate([[True], np.diff(cdf) > 0.0])
     inverse = PchipInterpolator(cdf[keep], x_grid[keep])
-    draws = np.random.default_rng(rng).random(int(n))
+    draws = rng.random(int(n))
     return np.clip(inverse(draws), 0.0, 1.0) * joint.rho_max
 
 
@@ -510,7 +592,10 @@ def steady_stress(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
 
     sigma_s = sigma_a N_1 / N_0 with N_k = int_0^1 x^k exp(-I(x)) dx, i.e.
     sigma_a E[x_f^2] / (2 E[x_f]) over the firing stress x_f. Adaptive Gauss-Legendre
-    quadrature, relative accuracy ~1e-12.
+    quadrature, relative accuracy ~1e-12. With back jumps, sigma_a (int_0^1 p ds - 1/2)
+    from the branch occupancy p of :func:`_lattice_solution` (relative accuracy ~1e-9);
+    with strength classes, the
+    mean over the classes (the simulation's force is their equal-area sum).
 
     Parameters
     ----------
@@ -524,6 +609,13 @@ def steady_stress(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
     ndarray
         sigma_s [Pa], shaped like ``velocity``.
     """
+    members = joint.classes()
+    if len(members) > 1:
+        return sum(steady_stress(velocity, member) for member in members) / len(members)
+    if joint.back_jumps:
+        v = _velocity(velocity)
+        excess = [_lattice_excess(speed, joint) for speed in v.ravel()]
+        return joint.threshold_stress * np.reshape(excess, v.shape)
     moments = _moments(velocity, joint)
     return joint.threshold_stress * moments.n1 / moments.n0
 
@@ -548,6 +640,120 @@ def log_slope(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
     """
     moments = _moments(velocity, joint)
     return moments.m1 / moments.n1 - moments.m0 / moments.n0
+
+
+# ------------------------------------ extensions: strength classes and back jumps
+
+
+def strength_factors(spread: float, n_classes: int) -> FloatArray:
+    """sigma_a of each strength class over the mean sigma_a (dimensionless, mean 1).
+
+    sigma_a / <sigma_a> is lognormal with log-standard deviation ``spread`` (physics.md
+    section 5, strength_heterogeneity); class k is its k-th of ``n_classes``
+    equal-probability bins, represented by the bin's conditional mean
+    n [Phi(z_{k+1} - s) - Phi(z_k - s)], z_k = Phi^-1(k / n), so the mean is exact.
+    """
+    if spread == 0.0:
+        return np.ones(n_classes)
+    edges = ndtri(np.linspace(0.0, 1.0, n_classes + 1))
+    return n_classes * np.diff(ndtr(edges - spread))
+
+
+def _phi_functions(x: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """g1 = (1 - e^-x) / x, g2 = (x - 1 + e^-x) / x^2, g3 = (x^2/2 - x + 1 - e^-x) / x^3
+    (exponential-integrator weights; series below x = 1e-2, relative error < 1e-10)."""
+    small = x < 1e-2
+    xs = np.where(small, 1.0, x)
+    decayed = -np.expm1(-xs)
+    g1 = np.where(small, 1 - x / 2 + x**2 / 6 - x**3 / 24, decayed / xs)
+    g2 = np.where(small, 1 / 2 - x / 6 + x**2 / 24 - x**3 / 120, (xs - decayed) / xs**2)
+    g3 = np.where(
+        small, 1 / 6 - x / 24 + x**2 / 120 - x**3 / 720, (xs**2 / 2 - xs + decayed) / xs**3
+    )
+    return g1, g2, g3
+
+
+def _affine_scan(decay: FloatArray, source: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Prefix compositions of q -> decay_k q + source_k (Hillis-Steele scan, log2 N passes;
+    every term is non-negative, so nothing cancels): q_k = D_k q_0 + S_k."""
+    decay, source = decay.copy(), source.copy()
+    shift = 1
+    while shift < decay.size:
+        source[shift:] += decay[shift:] * source[:-shift]
+        decay[shift:] *= decay[:-shift]
+        shift *= 2
+    return decay, source
+
+
+def _lattice_solution(
+    velocity: float, joint: MeanFieldJoint, cells: int
+) -> tuple[FloatArray, FloatArray, float]:
+    """Departure q = p - p_eq of the upper-branch occupancy from Boltzmann's with back jumps:
+    phases s_k, q(s_k) and int_0^1 q ds (dimensionless).
+
+    On the periodic characteristic (:func:`nanoblock.barriers.lattice_reverse_barrier`) a
+    block at drive phase s in [0, 1] sits on the upper branch (stress s) or the lower one
+    (s - 1); the phase advances at V / rho~_max and hops never change it. Forward hops
+    leave the upper branch at r_+(s) = omega_a exp(-u f(s)), reverse hops the lower one at
+    r_+(s) exp(-u_el (s - 1/2)) (detailed balance), so the occupancy p of the upper branch
+    obeys
+
+        dp/ds = -a(s) (p - p_eq(s)),  a = Lambda e^(-u f(s)) [1 + e^(-u_el (s - 1/2))],
+
+    with Lambda = omega_a rho~_max / V, p_eq = 1 / (1 + e^(u_el (s - 1/2))) (Boltzmann),
+    and p(0) = 1: every block starts a period on the branch at zero stress (the upper one
+    at s = 1 is at its spinodal). The mean stress is sigma_a (int_0^1 p ds - 1/2) =
+    sigma_a int_0^1 q ds (p_eq - 1/2 is odd about s = 1/2), and q' = -a q - p_eq' is
+    integrated exactly for a constant a (its exact cell mean, 4-point Gauss-Legendre in
+    ln a) and a linear source on each of ``cells`` uniform cells: second order in the
+    cell size however stiff the cell (a ranges over 1e-20 ... 1e40).
+    """
+    u, u_el = joint.u, joint.u_elastic
+    log_lam = math.log(joint.attempt_frequency * joint.rho_max / float(_velocity(velocity)))
+    edges = np.linspace(0.0, 1.0, cells + 1)
+    h = 1.0 / cells
+    points = 0.5 * (edges[:-1, None] + edges[1:, None]) + 0.5 * h * _LATTICE_GL_X
+    log_a = log_lam - u * barrier_law(joint.barrier)(points)
+    log_a += np.logaddexp(0.0, -u_el * (points - 0.5))
+    x = (0.5 * h * np.exp(np.minimum(log_a, _LOG_I_CAP))) @ _LATTICE_GL_W  # cell mean a, times h
+    p_eq = expit(-u_el * (edges - 0.5))
+    source = u_el * p_eq * (1.0 - p_eq)  # -dp_eq/ds
+    start, slope = source[:-1], np.diff(source) / h
+    g1, g2, g3 = _phi_functions(x)
+    decay, gain = _affine_scan(np.exp(-x), start * h * g1 + slope * h**2 * g2)
+    q0 = 1.0 - p_eq[0]
+    q = np.concatenate(([q0], decay * q0 + gain))
+    integral = np.sum(q[:-1] * h * g1 + start * h**2 * g2 + slope * h**3 * g3)
+    return edges, q, float(integral)
+
+
+def _lattice_excess(velocity: float, joint: MeanFieldJoint) -> float:
+    """int_0^1 q ds = sigma_s / sigma_a with back jumps, Richardson-extrapolated from
+    2^14 and 2^15 cells (relative accuracy ~1e-9)."""
+    coarse = _lattice_solution(velocity, joint, _LATTICE_CELLS // 2)[2]
+    fine = _lattice_solution(velocity, joint, _LATTICE_CELLS)[2]
+    return (4.0 * fine - coarse) / 3.0
+
+
+def _upper_occupancy(phase: FloatArray, velocity: float, joint: MeanFieldJoint) -> FloatArray:
+    """p(s) = p_eq(s) + q(s) of :func:`_lattice_solution` at drive phases s in [0, 1]."""
+    edges, q, _ = _lattice_solution(velocity, joint, _LATTICE_CELLS)
+    phase = np.asarray(phase, dtype=float)
+    return expit(-joint.u_elastic * (phase - 0.5)) + np.interp(phase, edges, q)
+
+
+def _lattice_density(rho: ArrayLike, velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
+    """Stationary density [1/m] of rho~ = b^2 sigma / k1 on [-rho~_max, rho~_max] with back
+    jumps: p(x) / rho~_max on the upper branch (x >= 0), (1 - p(x + 1)) / rho~_max below."""
+    rho_arr, v_arr = _broadcast_rho_velocity(rho, velocity)
+    x = rho_arr / joint.rho_max
+    out = np.zeros(x.shape)
+    for speed in np.unique(v_arr):
+        here = (v_arr == speed) & (np.abs(x) <= 1.0)
+        phase = np.where(x[here] >= 0.0, x[here], x[here] + 1.0)
+        p = _upper_occupancy(phase, float(speed), joint)
+        out[here] = np.where(x[here] >= 0.0, p, 1.0 - p) / joint.rho_max
+    return out
 
 
 # --------------------------------------------- large-u asymptotics and the cutoff
