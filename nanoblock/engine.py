@@ -21,7 +21,7 @@ from tqdm.auto import tqdm
 import nanoblock
 from nanoblock.kernels.blocks import landing_overshoot
 from nanoblock.kernels.chain import reduced_stresses
-from nanoblock.kernels.contacts import total_contact_area
+from nanoblock.kernels.contacts import ageing_rate, total_contact_area
 from nanoblock.kernels.layout import PARAMS, SLIDER
 from nanoblock.kernels.rng import seed_streams
 from nanoblock.kernels.stepper import advance_to_sample
@@ -184,7 +184,7 @@ def initial_state(
             rho = sample_q_stationary(rows.size, velocity, member, setup)
             rows[:] = rho.reshape(rows.shape) / member.rho_max
         y = _chain_stretch(y, float(params[0]["kappa"]))
-        clock = interface.ageing_rate(velocity)
+        clock = ageing_rate(velocity, params[0])
         age = (memory / velocity) * clock * setup.standard_exponential(shape[0])
         if not np.isfinite(memory):
             age = np.zeros(shape[0])

@@ -237,13 +237,6 @@ class Interface(_Section):
         object.__setattr__(self, "reference_force", float(self.normal_force))
         return self
 
-    def ageing_rate(self, velocity: float) -> float:
-        """Rate of a contact's ageing clock at slider velocity V [m/s]: 1, or V / (V +
-        v_theta) with a state cutoff (000/Eq. 7)."""
-        if self.state_cutoff_velocity is None:
-            return 1.0
-        return abs(velocity) / (abs(velocity) + self.state_cutoff_velocity)
-
     @property
     def real_area(self) -> float:
         """Real contact area at birth Sigma_r = W / p [m^2]."""
