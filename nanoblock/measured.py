@@ -132,23 +132,19 @@ def from_simulation(run: xr.Dataset) -> xr.Dataset:
     layout of a measured time series, without the validation of :func:`load_measurement`.
 
     Dim ``sample``; ``time`` [s], ``mu`` (the ``friction_coefficient``),
-    ``load_point_displacement`` [m], ``load_point_velocity`` [m/s] (exact, from the
-    scenario's protocol), ``slip`` [m] (the slider displacement); metadata from the
-    scenario: ``stiffness_per_load`` K/W [1/m] (``inf`` for a rigid drive),
-    ``normal_force`` W [N], ``temperature`` T [K], and the scenario JSON itself.
+    ``load_point_displacement`` [m] (the drive, exact at every sample; a fit rebuilds the
+    piecewise-constant load-point velocity from it), ``slip`` [m] (the slider
+    displacement); metadata from the scenario: ``stiffness_per_load`` K/W [1/m] (``inf``
+    for a rigid drive), ``normal_force`` W [N], ``temperature`` T [K], and the scenario
+    JSON itself.
     """
-    from nanoblock.engine import protocol_table
     from nanoblock.params import Scenario
 
     scenario = Scenario.from_json(run.attrs["scenario"])
-    time = np.asarray(run["time"].values, dtype=float)
-    starts, velocities, _ = protocol_table(scenario)
-    segment = np.searchsorted(starts, time, side="right") - 1
     columns = {
-        "time": time,
+        "time": run["time"].values,
         "mu": run["friction_coefficient"].values,
         "load_point_displacement": run["load_point_displacement"].values,
-        "load_point_velocity": velocities[np.clip(segment, 0, velocities.size - 1)],
         "slip": run["slider_displacement"].values,
     }
     interface = scenario.interface

@@ -34,6 +34,10 @@ SKIP_PERIOD = 0.5
 """The fit window starts this many guessed periods after the step (the direct effect and
 the fastest transients are over by then)."""
 
+WINDOW_PERIODS = 3.0
+"""The fit window lasts at most this many guessed periods (a strongly damped ringing is
+gone by then, and what follows is noise)."""
+
 
 def _basis(t: np.ndarray, growth: float, pulsation: float) -> np.ndarray:
     decay = np.exp(growth * t)
@@ -44,17 +48,19 @@ def _basis(t: np.ndarray, growth: float, pulsation: float) -> np.ndarray:
 
 def _damped_fit(t: np.ndarray, mu: np.ndarray, pulsation: float) -> tuple[np.ndarray, np.ndarray]:
     """(lambda, omega) of c + e^(lambda t) (a cos omega t + b sin omega t) by variable
-    projection (c, a, b linear), and their standard errors: the Jacobian's, inflated by
-    (1 + r) / (1 - r) for a lag-1 autocorrelation r of the residuals."""
+    projection (c, a, b linear), omega within 0.3-3 and |lambda| within 3 times the guessed
+    pulsation, and their standard errors: the Jacobian's, inflated by (1 + r) / (1 - r) for
+    a lag-1 autocorrelation r of the residuals."""
     t = t - t[0]
 
     def residual(x: np.ndarray) -> np.ndarray:
         design = _basis(t, x[0], x[1])
         return design @ np.linalg.lstsq(design, mu, rcond=None)[0] - mu
 
+    bounds = ([-3.0 * pulsation, 0.3 * pulsation], [3.0 * pulsation, 3.0 * pulsation])
     best = None
     for guess in pulsation * np.array([0.6, 1.0, 1.6]):
-        trial = least_squares(residual, [0.0, guess], x_scale=[guess, guess])
+        trial = least_squares(residual, [0.0, guess], x_scale=[guess, guess], bounds=bounds)
         if best is None or trial.cost < best.cost:
             best = trial
     r = best.fun
@@ -81,7 +87,8 @@ def oscillation(run: xr.Dataset, step: int = 1, period_guess: float | None = Non
     time = run["time"].values
     after = time > starts[step]
     sticks = bool(np.any(run["slider_velocity"].values[after] < STICK * velocity))
-    window = time > starts[step] + SKIP_PERIOD * period_guess
+    begin = starts[step] + SKIP_PERIOD * period_guess
+    window = (time > begin) & (time < begin + WINDOW_PERIODS * period_guess)
     if sticks or window.sum() < 10:
         values, errors = np.full(2, np.nan), np.full(2, np.nan)
     else:

@@ -47,6 +47,13 @@ between level and peak)."""
 SPIKE_WINDOW = 0.3
 """The peak is searched within SPIKE_WINDOW D0 of load-point travel after the step."""
 
+START_DC = 0.5
+"""Fits start from Dc = START_DC D0, the aging-law Dc that matches the renewal model's
+linearised response ln(1 + s/r)/(s/r) (r = V/D0) to first order. The memory lengths are
+not gridded: a grid down to a few rho~_max finds a spurious minimum there (the direct
+effect's own relaxation over the activation length, 001/Eq. 38), where the fitted law
+is too stiff to integrate."""
+
 
 def _segment(scenario: Scenario, step: int) -> tuple[float, float, float]:
     """Load-point position [m] where segment ``step`` starts, and the velocities [m/s]
@@ -117,15 +124,22 @@ def fit_transient(
     expected mapping at the first velocity V: A = alpha mu_ss (exact alpha, 001/Eq. 16),
     B = m sigma_s / p (001/Eqs. 5, 16: the state effect acts on the area at birth),
     Dc = D0. ``hold`` fixes law parameters at given values (e.g. ``{"a": A}`` with A
-    from a spike, as experimenters do with 001/Eq. 12); their stderr is 0. ``mu_fit``
+    from a spike, as experimenters do with 001/Eq. 12); their stderr is 0. The search
+    starts from Dc = :data:`START_DC` D0 and grids only A (see there). ``mu_fit``
     (dim ``sample``, coordinate ``load_point_displacement``) is the fitted friction at the
     fitted samples."""
     scenario = Scenario.from_json(run.attrs["scenario"])
     data = from_simulation(run)
     data = data.isel(sample=data.load_point_displacement.values >= settle * scenario.joint.rho_max)
     held = dict(hold or {})
-    free = [name for name in rsf_law(law).default_free if name not in held]
-    result = fit_rsf(data, law, free=free, initial=held)
+    model = rsf_law(law)
+    free = [name for name in model.default_free if name not in held]
+    start = dict(held)
+    if math.isfinite(scenario.interface.memory_length):
+        for name in {"dc", "d0"} & set(free):
+            start[name] = START_DC * scenario.interface.memory_length
+    search = [name for name in free if name == "a"]
+    result = fit_rsf(data, law, free=free, initial=start, search=search)
     joint = mean_field_joint(scenario)
     interface = scenario.interface
     velocity = scenario.loading.first_velocity
