@@ -161,6 +161,14 @@ def sample_extension(run, scenario):
 
 fig, (left, right) = plt.subplots(1, 2, figsize=(12, 4.5), constrained_layout=True)
 motor, sample = sample_extension(block_runs[0], stepped)
+block_time = block_runs[0].time.values
+last_hold = block_time > hold_start + 1.0
+block_slope = np.polyfit(np.log(block_time[last_hold] - hold_start), sample[last_hold], 1)[0]
+direct_creep = -2 * FIG2_NORMAL_FORCE * SURFACES["si_steel_1"].a / apparatus.k_s
+print(
+    f"last hold back-creep ds/dln t: nanoblock {block_slope / 1e-9:.2f} nm, silicon law "
+    f"{slope / 1e-9:.2f} nm, -2NA/k_s = {direct_creep / 1e-9:.2f} nm"
+)
 left.plot(block_runs[0].time, sample / um, label="nanoblock interface")
 left.plot(fig2.time, fig2.s / um, ls="--", label="silicon law (000/Eqs. 1, 7, 14)")
 left.set_xlabel("time t [s]")

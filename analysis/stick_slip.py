@@ -65,7 +65,9 @@ measured = float(onset.stiffness_per_load_c)
 print("growth rate x period:", np.round((2 * np.pi * results.growth / results.pulsation).values, 2))
 print(
     f"onset (K/W)_c = {measured:.4g} +- {float(onset.stiffness_per_load_c_stderr):.2g} 1/m, "
-    f"pulsation {float(onset.pulsation_c) * d0 / velocity:.2f} V/D0"
+    f"pulsation {float(onset.pulsation_c) * d0 / velocity:.2f} V/D0; bracket: sticks at "
+    f"{float(onset.stiffness_per_load_stick):.4g}, rings down at "
+    f"{float(onset.stiffness_per_load_stable):.4g} 1/m"
 )
 
 # %% [markdown]
@@ -148,6 +150,14 @@ bottom.errorbar(
 for k in per_load[~stable]:
     bottom.axvline(k, color="r", lw=0.8, ls=":")
 bottom.axhline(0, color="k", lw=0.8)
+if np.isfinite(onset.stiffness_per_load_stick):
+    bottom.axvspan(
+        float(onset.stiffness_per_load_stick),
+        float(onset.stiffness_per_load_stable),
+        color="grey",
+        alpha=0.2,
+        label="bracket: sticks / rings down",
+    )
 bottom.axvline(measured, color="k", label="simulated onset")
 bottom.axvline(rsf_onset, color="C1", ls="--", label="(B - A)/Dc, aging-law fit (001/Eq. 9)")
 bottom.axvline(renewal, color="C2", ls="-.", label="renewal linear theory")

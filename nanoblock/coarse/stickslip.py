@@ -5,7 +5,7 @@ of the friction. Where steady sliding is stable the oscillation decays: a least-
 fit of mu(t) = c + exp(lambda t) (a cos(omega t) + b sin(omega t)) gives its growth rate
 lambda < 0 and pulsation omega. Where it is not, the oscillation grows until the slider
 sticks (its velocity falls below :data:`STICK` of the drive's). The onset is where a line
-through lambda(K/W) of the stable runs crosses zero (the Hopf bifurcation, 001/Eq. 9:
+through lambda(K/W) of the softest stable runs crosses zero (the Hopf bifurcation, 001/Eq. 9:
 (K/W)_c = (B - A) / Dc for rate-and-state), and the pulsation there is read off a line
 through omega(K/W) (001/Eq. 10: Omega_c = (V / Dc) sqrt((B - A) / A)).
 """
@@ -33,6 +33,10 @@ STICK = 0.05
 SKIP_PERIOD = 0.5
 """The fit window starts this many guessed periods after the step (the direct effect and
 the fastest transients are over by then)."""
+
+NEAREST = 2
+"""Runs used for the onset line: the softest stable ones. Near the onset lambda(K) is close
+to linear and well measured; far above it the ringing dies within a period."""
 
 WINDOW_PERIODS = 3.0
 """The fit window lasts at most this many guessed periods (a strongly damped ringing is
@@ -112,39 +116,41 @@ def oscillation(run: xr.Dataset, step: int = 1, period_guess: float | None = Non
     )
 
 
-def stick_slip_onset(oscillations: xr.Dataset, key: str = "loading.stiffness") -> xr.Dataset:
+def stick_slip_onset(
+    oscillations: xr.Dataset, key: str = "loading.stiffness", nearest: int = NEAREST
+) -> xr.Dataset:
     """(K/W)_c [1/m] and the pulsation there from the :func:`oscillation` results of a
     stiffness sweep (dim ``key``, the drive stiffness K [N/m]; K/W from the scenario).
 
-    The onset is the zero of a weighted line through lambda(K/W) of the runs that do not
-    stick (at least two), its error by the delta method; the pulsation at onset is that
-    line's companion through omega(K/W). ``stiffness_per_load_stick`` is the stiffest run
-    that sticks (NaN if none): steady sliding there is unstable to the step.
+    The onset is the zero of a weighted line through lambda(K/W) of the ``nearest`` runs
+    closest above it (the softest that do not stick; at least two), its error by the
+    delta method; the pulsation at onset is that line's companion through omega(K/W).
+    ``stiffness_per_load_stick`` is the stiffest run that sticks (NaN if none) and
+    ``stiffness_per_load_stable`` the softest that does not: the measured bracket.
     """
     normal_force = float(oscillations.attrs["normal_force"])
     per_load = oscillations[key].values / normal_force
-    stable = oscillations.sticks.values == 0
-    if stable.sum() < 2:
+    stable = np.flatnonzero(oscillations.sticks.values == 0)
+    if stable.size < 2:
         raise ValueError(
             "the onset needs at least two stiffnesses at which the slider does not stick"
         )
+    used = stable[np.argsort(per_load[stable])[:nearest]]
     growth = fit_line(
-        per_load[stable],
-        oscillations.growth.values[stable],
-        oscillations.growth_stderr.values[stable],
+        per_load[used], oscillations.growth.values[used], oscillations.growth_stderr.values[used]
     )
     onset, onset_err = growth.root()
     pulsation = fit_line(
-        per_load[stable],
-        oscillations.pulsation.values[stable],
-        oscillations.pulsation_stderr.values[stable],
+        per_load[used],
+        oscillations.pulsation.values[used],
+        oscillations.pulsation_stderr.values[used],
     )
     at_onset = pulsation.intercept + pulsation.slope * onset
     gradient = np.array([1.0, onset])
     at_onset_err = math.hypot(
         math.sqrt(float(gradient @ pulsation.covariance @ gradient)), pulsation.slope * onset_err
     )
-    sticking = per_load[~stable]
+    sticking = np.delete(per_load, stable)
     return xr.Dataset(
         {
             **estimate("stiffness_per_load_c", onset, onset_err, "1/m", "stick-slip onset (K/W)_c"),
@@ -153,6 +159,11 @@ def stick_slip_onset(oscillations: xr.Dataset, key: str = "loading.stiffness") -
                 (),
                 float(sticking.max()) if sticking.size else np.nan,
                 {"units": "1/m", "long_name": "stiffest K/W at which the slider sticks"},
+            ),
+            "stiffness_per_load_stable": xr.Variable(
+                (),
+                float(per_load[stable].min()),
+                {"units": "1/m", "long_name": "softest K/W at which the slider does not stick"},
             ),
         }
     )
