@@ -46,6 +46,7 @@ from nanoblock.barriers import (
     reduced_barrier_height,
     zero_stress_barrier,
 )
+from nanoblock.theory.lattice_kernel import occupancy_departure
 
 __all__ = [
     "EULER_GAMMA",
@@ -80,9 +81,11 @@ _LEVELS = np.concatenate(
 _LOG_LEVELS = np.log(_LEVELS)
 _LOG_I_CAP = 700.0  # exp(-exp(700)) == 0: larger exponents change nothing
 _BISECTIONS = 64
+_NEWTON_TOLERANCE = 1e-13
 _SAMPLE_SUBCELLS = 16
 _PEAK_GRID = 4097
-_LATTICE_CELLS = 2**15
+_LATTICE_CELLS = 2**15  # the stationary density and sampling
+_LATTICE_STRESS_CELLS = 2**13  # steady_stress, with Richardson extrapolation
 _LATTICE_GL_X, _LATTICE_GL_W = np.polynomial.legendre.leggauss(4)
 
 
@@ -291,6 +294,27 @@ def _bisect(func: Callable[[FloatArray], FloatArray], lo: FloatArray, hi: FloatA
     return 0.5 * (lo + hi)
 
 
+def _newton(
+    func: Callable[[FloatArray], tuple[FloatArray, FloatArray]], lo: FloatArray, hi: FloatArray
+) -> FloatArray:
+    """Vectorised root of a function increasing on [lo, hi], from ``func`` returning its
+    value and slope: Newton steps from ``hi``, a bisection wherever a step leaves the
+    bracket, until every step is below 1e-13 (at most _BISECTIONS iterations)."""
+    lo, hi = np.broadcast_arrays(np.asarray(lo, dtype=float), np.asarray(hi, dtype=float))
+    y = hi.copy()
+    for _ in range(_BISECTIONS):
+        value, slope = func(y)
+        above = value > 0.0
+        lo, hi = np.where(above, lo, y), np.where(above, y, hi)
+        step = y - value / slope
+        step = np.where((step >= lo) & (step <= hi), step, 0.5 * (lo + hi))
+        converged = np.all(np.abs(step - y) <= _NEWTON_TOLERANCE * (1.0 + np.abs(y)))
+        y = step
+        if converged:
+            break
+    return y
+
+
 def _unique_velocities(velocity: FloatArray) -> tuple[FloatArray, NDArray[np.intp]]:
     """Distinct velocities and the inverse index (flattened)."""
     return np.unique(velocity.ravel(), return_inverse=True)
@@ -304,23 +328,43 @@ def _j_rate_t(t: FloatArray, barrier: str, u: float) -> FloatArray:
     return np.exp(-u * barrier_law(barrier)(_t_to_x(t))) * 2.0 * (1.0 - t)
 
 
+def _partial_matrix() -> FloatArray:
+    """Map from a cell's integrand at its Gauss-Legendre nodes y_i to the Legendre
+    coefficients of G(y) = F(y) / (1 + y), F(y) = int_{-1}^y of the integrand's degree-15
+    interpolant (y in [-1, 1]): F = (1 + y) G keeps full relative accuracy as y -> -1."""
+    leg = np.polynomial.legendre
+    degree = _TABLE_GL_X.size - 1
+    scale = (2.0 * np.arange(degree + 1) + 1.0) / 2.0
+    interpolants = scale[:, None] * (leg.legvander(_TABLE_GL_X, degree) * _TABLE_GL_W[:, None]).T
+    rows = [leg.legdiv(leg.legint(c, lbnd=-1.0), [1.0, 1.0])[0] for c in interpolants.T]
+    return np.array(rows)
+
+
+_PARTIAL = _partial_matrix()
+
+
 @lru_cache(maxsize=64)
-def _j_table(barrier: str, u: float) -> FloatArray:
-    """Cumulative J at the uniform t-grid edges k / _TABLE_CELLS (Gauss-Legendre per cell)."""
+def _j_table(barrier: str, u: float) -> tuple[FloatArray, FloatArray]:
+    """Cumulative J at the uniform t-grid edges k / _TABLE_CELLS (Gauss-Legendre per cell)
+    and, per cell, the Legendre coefficients of the partial integral's G (:data:`_PARTIAL`)."""
     edges = np.linspace(0.0, 1.0, _TABLE_CELLS + 1)
     t, w = _gauss_rule(edges[:-1], edges[1:], _TABLE_GL_X, _TABLE_GL_W)
-    cells = np.sum(w * _j_rate_t(t, barrier, u), axis=-1)
-    return np.concatenate([[0.0], np.cumsum(cells)])
+    rate = _j_rate_t(t, barrier, u)
+    cumulative = np.concatenate([[0.0], np.cumsum(np.sum(w * rate, axis=-1))])
+    return cumulative, np.ascontiguousarray((rate @ _PARTIAL).T)
 
 
 def _log_j_quadrature(x: FloatArray, barrier: str, u: float) -> FloatArray:
-    """ln J(x) for any barrier law: table up to the cell edge, Gauss-Legendre beyond."""
-    table = _j_table(barrier, u)
+    """ln J(x) for any barrier law: table up to the cell edge, plus the integral of the
+    cell's degree-15 interpolant of dJ/dt (exact to rounding for these smooth integrands)."""
+    table, partial = _j_table(barrier, u)
     t = _x_to_t(np.clip(x, 0.0, 1.0))
     cell = np.minimum((t * _TABLE_CELLS).astype(np.intp), _TABLE_CELLS - 1)
-    s, w = _gauss_rule(cell / _TABLE_CELLS, t, _TABLE_GL_X, _TABLE_GL_W)
+    offset = t - cell / _TABLE_CELLS
+    y = 2.0 * _TABLE_CELLS * offset - 1.0
+    inner = np.polynomial.legendre.legval(y, partial[:, cell], tensor=False)
     with np.errstate(divide="ignore"):
-        return np.log(table[cell] + np.sum(w * _j_rate_t(s, barrier, u), axis=-1))
+        return np.log(table[cell] + offset * inner)
 
 
 def _log_j_persson(x: FloatArray, u: float) -> FloatArray:
@@ -352,12 +396,20 @@ def _level_edges(log_lam: FloatArray, joint: MeanFieldJoint) -> FloatArray:
     """t-edges [0, t(I = L_1), ..., t(I = L_K), 1] of the adaptive cells, shape (..., K + 2).
 
     Since exp(-u) x <= J(x) <= x, the level ln J = target lies in
-    ln x in [target, target + u]; bisection runs in ln x, so tiny cutoffs stay resolved.
+    ln x in [target, target + u]; the root is found in ln x (so tiny cutoffs stay
+    resolved) by safeguarded Newton steps, with d ln J / d ln x = x exp(-u f(x)) / J(x).
     """
     target = _LOG_LEVELS - np.asarray(log_lam, dtype=float)[..., None]
     hi = np.minimum(target + joint.u, 0.0)
     lo = np.minimum(target, hi)
-    log_x = _bisect(lambda lx: _log_j(np.exp(lx), joint) - target, lo, hi)
+    law = barrier_law(joint.barrier)
+
+    def level(log_x: FloatArray) -> tuple[FloatArray, FloatArray]:
+        x = np.exp(log_x)
+        log_j = _log_j(x, joint)
+        return log_j - target, np.exp(log_x - joint.u * law(x) - log_j)
+
+    log_x = _newton(level, lo, hi)
     t = np.maximum.accumulate(_x_to_t(np.exp(log_x)), axis=-1)
     ends = np.ones((*t.shape[:-1], 1))
     return np.concatenate([0.0 * ends, t, ends], axis=-1)
@@ -614,8 +666,7 @@ def steady_stress(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
         return sum(steady_stress(velocity, member) for member in members) / len(members)
     if joint.back_jumps:
         v = _velocity(velocity)
-        excess = [_lattice_excess(speed, joint) for speed in v.ravel()]
-        return joint.threshold_stress * np.reshape(excess, v.shape)
+        return joint.threshold_stress * _lattice_excess(v, joint).reshape(v.shape)
     moments = _moments(velocity, joint)
     return joint.threshold_stress * moments.n1 / moments.n0
 
@@ -659,37 +710,12 @@ def strength_factors(spread: float, n_classes: int) -> FloatArray:
     return n_classes * np.diff(ndtr(edges - spread))
 
 
-def _phi_functions(x: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """g1 = (1 - e^-x) / x, g2 = (x - 1 + e^-x) / x^2, g3 = (x^2/2 - x + 1 - e^-x) / x^3
-    (exponential-integrator weights; series below x = 1e-2, relative error < 1e-10)."""
-    small = x < 1e-2
-    xs = np.where(small, 1.0, x)
-    decayed = -np.expm1(-xs)
-    g1 = np.where(small, 1 - x / 2 + x**2 / 6 - x**3 / 24, decayed / xs)
-    g2 = np.where(small, 1 / 2 - x / 6 + x**2 / 24 - x**3 / 120, (xs - decayed) / xs**2)
-    g3 = np.where(
-        small, 1 / 6 - x / 24 + x**2 / 120 - x**3 / 720, (xs**2 / 2 - xs + decayed) / xs**3
-    )
-    return g1, g2, g3
-
-
-def _affine_scan(decay: FloatArray, source: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Prefix compositions of q -> decay_k q + source_k (Hillis-Steele scan, log2 N passes;
-    every term is non-negative, so nothing cancels): q_k = D_k q_0 + S_k."""
-    decay, source = decay.copy(), source.copy()
-    shift = 1
-    while shift < decay.size:
-        source[shift:] += decay[shift:] * source[:-shift]
-        decay[shift:] *= decay[:-shift]
-        shift *= 2
-    return decay, source
-
-
 def _lattice_solution(
-    velocity: float, joint: MeanFieldJoint, cells: int
-) -> tuple[FloatArray, FloatArray, float]:
+    velocity: ArrayLike, joint: MeanFieldJoint, cells: int
+) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Departure q = p - p_eq of the upper-branch occupancy from Boltzmann's with back jumps:
-    phases s_k, q(s_k) and int_0^1 q ds (dimensionless).
+    phases s_k, q(s_k) (one row per velocity) and int_0^1 q ds per velocity
+    (dimensionless; ``velocity`` flattened).
 
     On the periodic characteristic (:func:`nanoblock.barriers.lattice_reverse_barrier`) a
     block at drive phase s in [0, 1] sits on the upper branch (stress s) or the lower one
@@ -704,34 +730,33 @@ def _lattice_solution(
     and p(0) = 1: every block starts a period on the branch at zero stress (the upper one
     at s = 1 is at its spinodal). The mean stress is sigma_a (int_0^1 p ds - 1/2) =
     sigma_a int_0^1 q ds (p_eq - 1/2 is odd about s = 1/2), and q' = -a q - p_eq' is
-    integrated exactly for a constant a (its exact cell mean, 4-point Gauss-Legendre in
-    ln a) and a linear source on each of ``cells`` uniform cells: second order in the
-    cell size however stiff the cell (a ranges over 1e-20 ... 1e40).
+    integrated exactly for a constant a (its exact cell mean, 4-point Gauss-Legendre) and
+    a linear source on each of ``cells`` uniform cells: second order in the cell size
+    however stiff the cell (a ranges over 1e-20 ... 1e40). a / Lambda, p_eq and the source
+    do not depend on V, so they are computed once for every velocity
+    (:func:`nanoblock.theory.lattice_kernel.occupancy_departure` does the sweep).
     """
     u, u_el = joint.u, joint.u_elastic
-    log_lam = math.log(joint.attempt_frequency * joint.rho_max / float(_velocity(velocity)))
+    lam = joint.attempt_frequency * joint.rho_max / _velocity(velocity).ravel()
     edges = np.linspace(0.0, 1.0, cells + 1)
     h = 1.0 / cells
     points = 0.5 * (edges[:-1, None] + edges[1:, None]) + 0.5 * h * _LATTICE_GL_X
-    log_a = log_lam - u * barrier_law(joint.barrier)(points)
-    log_a += np.logaddexp(0.0, -u_el * (points - 0.5))
-    x = (0.5 * h * np.exp(np.minimum(log_a, _LOG_I_CAP))) @ _LATTICE_GL_W  # cell mean a, times h
+    log_rate = np.logaddexp(0.0, -u_el * (points - 0.5)) - u * barrier_law(joint.barrier)(points)
+    rate_h = (0.5 * h * np.exp(log_rate)) @ _LATTICE_GL_W  # cell mean of a / Lambda, times h
     p_eq = expit(-u_el * (edges - 0.5))
     source = u_el * p_eq * (1.0 - p_eq)  # -dp_eq/ds
-    start, slope = source[:-1], np.diff(source) / h
-    g1, g2, g3 = _phi_functions(x)
-    decay, gain = _affine_scan(np.exp(-x), start * h * g1 + slope * h**2 * g2)
-    q0 = 1.0 - p_eq[0]
-    q = np.concatenate(([q0], decay * q0 + gain))
-    integral = np.sum(q[:-1] * h * g1 + start * h**2 * g2 + slope * h**3 * g3)
-    return edges, q, float(integral)
+    q = np.empty((lam.size, cells + 1))
+    integral = np.empty(lam.size)
+    occupancy_departure(rate_h, source, lam, 1.0 - p_eq[0], q, integral)
+    return edges, q, integral
 
 
-def _lattice_excess(velocity: float, joint: MeanFieldJoint) -> float:
-    """int_0^1 q ds = sigma_s / sigma_a with back jumps, Richardson-extrapolated from
-    2^14 and 2^15 cells (relative accuracy ~1e-9)."""
-    coarse = _lattice_solution(velocity, joint, _LATTICE_CELLS // 2)[2]
-    fine = _lattice_solution(velocity, joint, _LATTICE_CELLS)[2]
+def _lattice_excess(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
+    """int_0^1 q ds = sigma_s / sigma_a with back jumps per velocity (flattened),
+    Richardson-extrapolated from 2^12 and 2^13 cells (relative accuracy ~1e-9; absolute
+    ~1e-10 where friction nearly vanishes)."""
+    coarse = _lattice_solution(velocity, joint, _LATTICE_STRESS_CELLS // 2)[2]
+    fine = _lattice_solution(velocity, joint, _LATTICE_STRESS_CELLS)[2]
     return (4.0 * fine - coarse) / 3.0
 
 
@@ -739,7 +764,7 @@ def _upper_occupancy(phase: FloatArray, velocity: float, joint: MeanFieldJoint) 
     """p(s) = p_eq(s) + q(s) of :func:`_lattice_solution` at drive phases s in [0, 1]."""
     edges, q, _ = _lattice_solution(velocity, joint, _LATTICE_CELLS)
     phase = np.asarray(phase, dtype=float)
-    return expit(-joint.u_elastic * (phase - 0.5)) + np.interp(phase, edges, q)
+    return expit(-joint.u_elastic * (phase - 0.5)) + np.interp(phase, edges, q[0])
 
 
 def _lattice_density(rho: ArrayLike, velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
