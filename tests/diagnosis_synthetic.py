@@ -32,6 +32,7 @@ TIME_SERIES_EFFECTS = (
 )
 STEADY_EFFECTS = (
     "barrier_shape",
+    "back_jumps",
     "strength_heterogeneity",
     "joint_softening",
     "velocity_saturation",
@@ -129,10 +130,17 @@ def time_series_case(effect: str, rng: np.random.Generator, noise: float) -> xr.
 
 
 def naive_steady_stress(
-    velocity: np.ndarray, u: float, v_attempt: float, barrier: str = "persson"
+    velocity: np.ndarray,
+    u: float,
+    v_attempt: float,
+    barrier: str = "persson",
+    elastic_ratio: float | None = None,
 ) -> np.ndarray:
     """sigma_s / sigma_a by brute force: Q_st = exp(-I(x)), I = (v_a / V) int_0^x
-    exp(-u f) dx' on a uniform grid of 40,001 points (001/Eqs. 27-28)."""
+    exp(-u f) dx' on a uniform grid of 40,001 points (001/Eqs. 27-28); with
+    ``elastic_ratio`` r, reverse hops (:func:`naive_back_jump_stress`)."""
+    if elastic_ratio is not None:
+        return naive_back_jump_stress(velocity, u, v_attempt, elastic_ratio)
     x = np.linspace(0.0, 1.0, 40_001)
     f = 1.0 - x * x if barrier == "persson" else (1.0 - x) ** 1.5
     hazard = cumulative_trapezoid(np.exp(-u * f), x, initial=0.0)
@@ -140,6 +148,42 @@ def naive_steady_stress(
     for i, v in enumerate(velocity):
         q = np.exp(-(v_attempt / v) * hazard)
         out[i] = np.trapezoid(x * q, x) / np.trapezoid(q, x)
+    return out
+
+
+def naive_back_jump_stress(
+    velocity: np.ndarray, u: float, v_attempt: float, elastic_ratio: float
+) -> np.ndarray:
+    """sigma_s / sigma_a with reverse hops (Persson's law), from the master equation.
+
+    A block at drive phase s = rho~ / rho~_max mod 1 sits on the upper branch (stress s)
+    with probability p, else on the lower one (s - 1); it hops down at
+    omega_a e^{-u (1 - s^2)} and up at that rate times e^{-u_el (s - 1/2)}, u_el = r u (the
+    elastic energy the down hop releases: detailed balance), and the phase advances at
+    V / rho~_max, so dp/ds = (v_a / V) e^{-u (1 - s^2)} [(1 - p) e^{-u_el (s - 1/2)} - p]
+    from p(0) = 1. Mean stress int_0^1 [p s + (1 - p)(s - 1)] ds, by Radau.
+    """
+    u_el = elastic_ratio * u
+
+    def rates(s: float, v: float) -> tuple[float, float]:
+        down = (v_attempt / v) * math.exp(-u * (1.0 - s * s))
+        return down, down * math.exp(-u_el * (s - 0.5))
+
+    out = np.empty(velocity.size)
+    for i, v in enumerate(velocity):
+
+        def rhs(s: float, y: np.ndarray, v: float = v) -> list[float]:
+            down, up = rates(s, v)
+            return [up * (1.0 - y[0]) - down * y[0], y[0] * s + (1.0 - y[0]) * (s - 1.0)]
+
+        def jacobian(s: float, y: np.ndarray, v: float = v) -> list[list[float]]:
+            down, up = rates(s, v)
+            return [[-up - down, 0.0], [1.0, 0.0]]
+
+        solution = solve_ivp(
+            rhs, (0.0, 1.0), [1.0, 0.0], method="Radau", jac=jacobian, rtol=1e-9, atol=1e-12
+        )
+        out[i] = solution.y[1, -1]
     return out
 
 
@@ -169,10 +213,12 @@ def steady_case(effect: str, rng: np.random.Generator, noise: float) -> xr.Datas
     scale = rng.uniform(0.3, 0.5)
     velocity = np.logspace(-10.0, 0.5, 36)
     temperatures = [293.0]
-    barrier, spread, extra = "persson", 0.0, 0.0
+    barrier, spread, extra, ratio = "persson", 0.0, 0.0, None
     t_ref, t_glass, drop = 293.0, 383.0, 0.0
     if effect == "barrier_shape":
         barrier = "spinodal"
+    elif effect == "back_jumps":
+        ratio = math.exp(rng.uniform(math.log(0.3), math.log(1.5)))  # u_el / u = E_J b / k1
     elif effect == "strength_heterogeneity":
         spread = rng.uniform(0.25, 0.5)
     elif effect == "joint_softening":
@@ -185,7 +231,7 @@ def steady_case(effect: str, rng: np.random.Generator, noise: float) -> xr.Datas
         raise ValueError(effect)
     if len(temperatures) > 1:
         velocity = np.logspace(-9.0, 0.5, 16)
-    quantiles = norm.ppf((np.arange(64) + 0.5) / 64)
+    quantiles = norm.ppf((np.arange(64) + 0.5) / 64) if spread else np.zeros(1)
     strengths = np.exp(spread * quantiles - 0.5 * spread**2)
     rows = []
     for temperature in temperatures:
@@ -194,7 +240,7 @@ def steady_case(effect: str, rng: np.random.Generator, noise: float) -> xr.Datas
         stress = np.zeros(velocity.size)
         for g in strengths * soft:
             u = u_ref * (t_ref / temperature) * g * g
-            stress += g * naive_steady_stress(velocity, u, v_attempt * g, barrier)
+            stress += g * naive_steady_stress(velocity, u, v_attempt * g, barrier, ratio)
         mu = scale * stress / strengths.size * _area(velocity, m, memory, effect, extra)
         rows.append(np.column_stack([velocity, np.full(velocity.size, temperature), mu]))
     table = np.concatenate(rows)

@@ -8,9 +8,10 @@ quadrature in :mod:`nanoblock.theory.meanfield`) times the aged contact area
 
 with S = sigma_s / sigma_a a function of the reduced barrier u(T) = u_r T_r / T and of
 the attempt velocity v_a = omega_a rho~_max (physics.md sections 1-2). Catalogue
-extensions (physics.md section 5) change one factor each: the barrier law, reverse hops,
-the creep onset time or state cutoff in the area factor, a distribution of sigma_a, or
-a joint that softens with temperature.
+extensions (physics.md section 5) change one factor each: the barrier law, reverse hops
+(the two-branch theory of ``MeanFieldJoint(back_jumps=True)``), the creep onset time or
+state cutoff in the area factor, a distribution of sigma_a, or a joint that softens with
+temperature.
 """
 
 from __future__ import annotations
@@ -67,7 +68,7 @@ class SteadyVariant:
         """Names of the parameters this variant adds to (mu_r, u, v_attempt, m)."""
         names = []
         if self.back_jumps:
-            names.append("back_stress")
+            names.append("elastic_ratio")
         if self.area == "saturation":
             names.append("v_saturation")
         if self.area == "cutoff":
@@ -88,64 +89,78 @@ UNITS = {
     "u": "1",
     "v_attempt": "m/s",
     "m": "1",
-    "back_stress": "1",
+    "elastic_ratio": "1",
     "v_saturation": "m/s",
     "v_theta": "m/s",
     "strength_spread": "1",
     "softening": "1",
 }
-"""Units of the surrogate's parameters (u at T_r; back_stress in units of sigma_a;
-softening: d ln sigma_a / d ln T at T_r)."""
+"""Units of the surrogate's parameters (u at T_r; elastic_ratio = u_el / u = E_J b / k1,
+the elastic energy of a hop over the barrier scale; softening: -d ln sigma_a / d ln T
+at T_r)."""
 _LINEAR = {"mu_r", "m", "softening"}
+_STRENGTH = ("u", "v_attempt", "elastic_ratio", "strength_spread", "softening")
+"""Parameters of the sigma_s factor (the others only scale or multiply it)."""
+_MAX_ELASTIC_RATIO = 2.0
+"""u_el <= 2u keeps the reverse-hop barrier of Persson's law >= 0 (k1 >= E_J b / 2)."""
 
 
 def reduced_stress(
-    velocity: FloatArray, u: float, v_attempt: float, barrier: str = "persson"
+    velocity: FloatArray,
+    u: float,
+    v_attempt: float,
+    barrier: str = "persson",
+    elastic_ratio: float | None = None,
 ) -> FloatArray:
     """S = sigma_s / sigma_a of the mean-field joint with reduced barrier u and attempt
-    velocity v_a = omega_a rho~_max [m/s] (001/Eq. 28)."""
+    velocity v_a = omega_a rho~_max [m/s] (001/Eq. 28); with ``elastic_ratio`` r, reverse
+    hops in detailed balance on the periodic characteristic with u_el = r u, i.e.
+    k1 = E_J b / r (physics.md section 5; scenarios/README.md, Catalogue extensions)."""
     block = (u * _E_J * BOLTZMANN * _T / _SIGMA_A**2) ** (1.0 / 3.0)
-    k1 = _E_J * block
+    k1 = _E_J * block / (1.0 if elastic_ratio is None else elastic_ratio)
     rho_max = block**2 * _SIGMA_A / k1
-    joint = MeanFieldJoint(block, _E_J, _SIGMA_A, k1, v_attempt / rho_max, _T, barrier)
+    joint = MeanFieldJoint(
+        block, _E_J, _SIGMA_A, k1, v_attempt / rho_max, _T, barrier,
+        back_jumps=elastic_ratio is not None,
+    )  # fmt: skip
     return steady_stress(velocity, joint) / _SIGMA_A
 
 
-def _eyring(velocity: FloatArray, u: float, v_attempt: float, barrier: str, back: float):
-    """S with reverse hops in detailed balance (Eyring, 001 after Eq. 33): forward hops at
-    stress S run at V_f, reverse ones at V_f exp(-S / s_b), so V = V_f (1 - e^{-S/s_b})
-    and friction falls to zero as V -> 0 like sinh^-1."""
-    lo, hi = np.log(velocity.min()) - 25.0, np.log(velocity.max()) + 2.0
-    forward = np.exp(np.linspace(lo, hi, 61))
-    stress = reduced_stress(forward, u, v_attempt, barrier)
-    net = forward * -np.expm1(-stress / back)
-    return np.interp(np.log(velocity), np.log(net), stress)
-
-
-def _direct(
-    variant: SteadyVariant, velocity: FloatArray, u: float, v_attempt: float, back: float
+def _strength(
+    variant: SteadyVariant,
+    velocity: FloatArray,
+    temperature: FloatArray,
+    p: Mapping[str, float],
+    t_ref: float,
 ) -> FloatArray:
-    if variant.back_jumps:
-        return _eyring(velocity, u, v_attempt, variant.barrier, back)
-    return reduced_stress(velocity, u, v_attempt, variant.barrier)
-
-
-def _strength(variant: SteadyVariant, velocity, temperature, p: Mapping[str, float], t_ref):
-    """sigma_a-weighted S at each (V, T), averaged over strength classes when spread."""
+    """sigma_a-weighted S at each (V, T), averaged over strength classes when spread: one
+    quadrature per temperature and class, over all its velocities."""
     out = np.empty(velocity.size)
+    nodes, weights = _CLASSES if variant.spread else (np.zeros(1), np.ones(1))
+    spread = p.get("strength_spread", 0.0)
+    ratio = p["elastic_ratio"] if variant.back_jumps else None
     for t in np.unique(temperature):
         here = temperature == t
         softened = (t / t_ref) ** (-p.get("softening", 0.0))  # sigma_a(T) / sigma_a(T_r)
-        nodes, weights = _CLASSES if variant.spread else (np.zeros(1), np.ones(1))
-        spread = p.get("strength_spread", 0.0)
         total = np.zeros(int(here.sum()))
         for z, w in zip(nodes, weights / weights.sum(), strict=True):
             g = softened * math.exp(spread * z - 0.5 * spread**2)  # sigma_a class / sigma_a
             u = p["u"] * (t_ref / t) * g**2  # U_a ~ sigma_a^2 (001/Eq. 37)
-            s = _direct(variant, velocity[here], u, p["v_attempt"] * g, p.get("back_stress", 1))
+            s = reduced_stress(velocity[here], u, p["v_attempt"] * g, variant.barrier, ratio)
             total += w * g * s
         out[here] = total
     return out
+
+
+def normalised_strength(
+    variant: SteadyVariant, table: SteadyTable, p: Mapping[str, float]
+) -> FloatArray:
+    """S(V, T) / S(V_r, T_r) at every row of ``table`` (the reference point rides along in
+    the quadrature at T_r)."""
+    velocity = np.append(table.velocity, table.v_ref)
+    temperature = np.append(table.temperature, table.t_ref)
+    strength = _strength(variant, velocity, temperature, p, table.t_ref)
+    return strength[:-1] / strength[-1]
 
 
 def _area(variant: SteadyVariant, velocity: FloatArray, p: Mapping[str, float], v_ref: float):
@@ -160,13 +175,17 @@ def _area(variant: SteadyVariant, velocity: FloatArray, p: Mapping[str, float], 
     return 1.0 + p["m"] * np.log(ratio)
 
 
-def steady_model(variant: SteadyVariant, table: SteadyTable, p: Mapping[str, float]) -> FloatArray:
-    """mu_ss of the surrogate at every row of ``table``."""
-    strength = _strength(variant, table.velocity, table.temperature, p, table.t_ref)
-    reference = _strength(
-        variant, np.array([table.v_ref]), np.array([table.t_ref]), p, table.t_ref
-    )[0]
-    return p["mu_r"] * strength / reference * _area(variant, table.velocity, p, table.v_ref)
+def steady_model(
+    variant: SteadyVariant,
+    table: SteadyTable,
+    p: Mapping[str, float],
+    strength: FloatArray | None = None,
+) -> FloatArray:
+    """mu_ss of the surrogate at every row of ``table`` (``strength``: the
+    :func:`normalised_strength` at ``p`` when already known)."""
+    if strength is None:
+        strength = normalised_strength(variant, table, p)
+    return p["mu_r"] * strength * _area(variant, table.velocity, p, table.v_ref)
 
 
 @dataclass(frozen=True)
@@ -183,8 +202,10 @@ _REFINED_STARTS = 2
 """Best grid starts refined by least squares."""
 _MAX_NFEV = 60
 """Model evaluations per refinement (each costs one quadrature per strength class)."""
+_RATIO_GRID = (0.5, 0.05, 1.5)
+"""Warm-start grid of elastic_ratio = u_el / u."""
 _EXTRA_START = {
-    "back_stress": 0.01,
+    "elastic_ratio": 0.5,
     "strength_spread": 0.2,
     "softening": 0.5,
 }
@@ -195,26 +216,33 @@ def _starts(
 ) -> list[dict[str, float]]:
     """Starting points: a grid in (u, v_a) with mu_r, m and the extras at neutral values
     (saturation and cutoff velocities at the ends of the measured range); from a warm
-    start, the extras alone are set on a grid (low, middle and high of their range)."""
+    start, the extras alone are set on a grid (low, middle and high of their range), plus
+    the (u, v_a) grid when the variant changes the shape of S (barrier law, back jumps),
+    where the base's u and v_a can be far from the extension's."""
     v = table.velocity
     extra = dict(_EXTRA_START)
     extra["v_saturation"] = float(v.max())
     extra["v_theta"] = float(v.min())
-    if warm is not None:
-        missing = [name for name in variant.names if name not in warm]
-        span = float(np.log(v.max() / v.min()))
-        factors = (1.0, math.exp(span / 2), math.exp(span)) if missing else (1.0,)
-        shift = {"v_saturation": -1.0, "v_theta": 1.0}
-        return [
-            {**warm, **{k: extra[k] * f ** shift.get(k, -0.5) for k in missing}} for f in factors
-        ]
     mu_r = float(np.interp(math.log(table.v_ref), np.log(np.sort(v)), table.mu[np.argsort(v)]))
     base = {"mu_r": mu_r, "m": 0.01}
-    return [
+    grid = [
         {**base, "u": u, "v_attempt": va, **{k: extra[k] for k in variant.extra}}
         for u in _STARTS["u"]
         for va in _STARTS["v_attempt"]
     ]
+    if warm is None:
+        return grid
+    missing = [name for name in variant.names if name not in warm]
+    span = float(np.log(v.max() / v.min()))
+    factors = (1.0, math.exp(span / 2), math.exp(span)) if missing else (1.0,)
+    shift = {"v_saturation": -1.0, "v_theta": 1.0}
+    levels = [{k: extra[k] * f ** shift.get(k, -0.5) for k in missing} for f in factors]
+    if "elastic_ratio" in missing:  # over its physical range (0, 2]: k1 >= E_J b / 2
+        for level, ratio in zip(levels, _RATIO_GRID, strict=True):
+            level["elastic_ratio"] = ratio
+    warm_starts = [{**warm, **level} for level in levels]
+    reshaped = variant.barrier != SteadyVariant.barrier or variant.back_jumps
+    return warm_starts + grid if reshaped else warm_starts
 
 
 def fit_steady(
@@ -236,10 +264,18 @@ def fit_steady(
     def pack(p: Mapping[str, float]) -> FloatArray:
         return np.array([math.log(p[n]) if lg else p[n] for n, lg in zip(names, log, strict=True)])
 
+    strengths: dict[tuple[float, ...], FloatArray] = {}
+    """The sigma_s factor by its parameters: Jacobian columns of mu_r, m and the area
+    velocities reuse it."""
+
     def residuals(x: FloatArray) -> FloatArray:
         with np.errstate(all="ignore"):
             try:
-                r = steady_model(variant, table, unpack(x))[fitted] - table.mu[fitted]
+                p = unpack(x)
+                key = tuple(p[name] for name in _STRENGTH if name in p)
+                if key not in strengths:
+                    strengths[key] = normalised_strength(variant, table, p)
+                r = steady_model(variant, table, p, strengths[key])[fitted] - table.mu[fitted]
             except (ValueError, FloatingPointError, ZeroDivisionError, OverflowError):
                 return np.full(int(fitted.sum()), 1e3)
         return np.where(np.isfinite(r), r, 1e3)
@@ -249,7 +285,9 @@ def fit_steady(
     for i, name in enumerate(names):
         if name == "u":
             lower[i], upper[i] = math.log(2.0), math.log(500.0)
-        elif name in ("back_stress", "strength_spread"):
+        elif name == "elastic_ratio":
+            lower[i], upper[i] = math.log(1e-4), math.log(_MAX_ELASTIC_RATIO)
+        elif name == "strength_spread":
             lower[i], upper[i] = math.log(1e-4), math.log(3.0)
     starts = [pack({n: s[n] for n in names}) for s in _starts(variant, table, start)]
     starts = [np.clip(x0, lower + 1e-9, upper - 1e-9) for x0 in starts]
