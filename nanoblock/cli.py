@@ -259,6 +259,12 @@ def diagnose(
     ],
     out: Annotated[Path, typer.Option("--out", "-o", help="output directory")] = Path("diagnosis"),
     progress: Annotated[bool, typer.Option(help="show a progress bar")] = True,
+    workers: Annotated[
+        int, typer.Option(min=1, help="processes fitting the candidate models in parallel")
+    ] = 1,
+    simulate: Annotated[
+        bool, typer.Option(help="check the verdict with the nanoblock simulator")
+    ] = True,
 ) -> None:
     """Diagnose what the base nanoblock model gets wrong on DATA, and why.
 
@@ -273,7 +279,9 @@ def diagnose(
 
     with _bad_input(DiagnosisError, DataError, ValueError):
         measurement = load_for_diagnosis(data)
-        result = diagnose(measurement, progress=progress)
+        result = diagnose(
+            measurement, progress=progress, workers=workers, simulate=simulate
+        )
     written = write_diagnosis(result, out, data.name)
     gain = result.gain()
     typer.echo(f"cause: {result.cause}")

@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -25,13 +26,14 @@ import xarray as xr
 from tqdm.auto import tqdm
 
 from nanoblock.diagnosis.catalogue import BASE, CATALOGUE, Effect, Surrogate
+from nanoblock.diagnosis.simulation import simulation_check
 from nanoblock.diagnosis.statistics import (
     Structure,
     information_criterion,
     noise_level,
     structure,
 )
-from nanoblock.diagnosis.surrogates import Fit, Measurement
+from nanoblock.diagnosis.surrogates import Fit, Masks, Measurement
 from nanoblock.diagnosis.validation import check_diagnosable
 
 STRONG_EVIDENCE = 10.0
@@ -49,7 +51,8 @@ class Candidate:
     fit: Fit
     residuals: list[np.ndarray]
     information_criterion: float
-    heldout_error: float
+    heldout_error: float | None
+    """RMS error on held-out folds; None when the IC already rules the model out."""
     structure: Structure
 
     @property
@@ -150,34 +153,93 @@ class Diagnosis:
         }
 
 
-def _candidate(
-    name: str,
-    measurement: Measurement,
-    surrogate: Surrogate,
-    noise: float,
-    tick: Callable,
-    base: Fit | None = None,
-) -> Candidate:
-    """Fit on all data (an extension warm-started from the base fit it nests), then refit
-    warm-started with each fold held out."""
-    fit = measurement.fit(surrogate, start=None if base is None else base.start)
-    tick()
-    residuals = [m - y for m, y in zip(fit.model, measurement.observed, strict=True)]
+def _full_fit(measurement: Measurement, surrogate: Surrogate, start: dict | None) -> Fit:
+    """Fit on all data (an extension warm-started from the base fit it nests)."""
+    return measurement.fit(surrogate, start=start)
+
+
+def _heldout_squares(
+    measurement: Measurement, surrogate: Surrogate, start: dict, masks: Masks
+) -> tuple[float, int]:
+    """Refit (warm-started) with one fold hidden: squared error on it, and its size."""
+    refit = measurement.fit(surrogate, holdout=masks, start=start)
     squared, count = 0.0, 0
-    for masks in measurement.folds():
-        refit = measurement.fit(surrogate, holdout=masks, start=fit.start)
-        for model, y, held in zip(refit.model, measurement.observed, masks, strict=True):
-            squared += float(np.sum((model[held] - y[held]) ** 2))
-            count += int(held.sum())
-        tick()
-    return Candidate(
-        name,
-        fit,
-        residuals,
-        information_criterion(residuals, fit.n_free),
-        math.sqrt(squared / count),
-        structure(residuals, noise),
-    )
+    for model, y, held in zip(refit.model, measurement.observed, masks, strict=True):
+        squared += float(np.sum((model[held] - y[held]) ** 2))
+        count += int(held.sum())
+    return squared, count
+
+
+class _Runner:
+    """Runs fits in this process or on a process pool, in submission order."""
+
+    def __init__(self, workers: int, tick: Callable[[int], Any]) -> None:
+        self.pool = ProcessPoolExecutor(workers) if workers > 1 else None
+        self.tick = tick
+
+    def map(self, function: Callable, jobs: list[tuple]) -> list:
+        if self.pool is None:
+            results = []
+            for job in jobs:
+                results.append(function(*job))
+                self.tick(1)
+            return results
+        futures = [self.pool.submit(function, *job) for job in jobs]
+        for future in futures:
+            future.add_done_callback(lambda _: self.tick(1))
+        return [future.result() for future in futures]
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown()
+
+
+def _fit_candidates(
+    measurement: Measurement,
+    models: dict[str, Surrogate],
+    noise: float,
+    runner: _Runner,
+) -> tuple[Candidate, list[Candidate]]:
+    """Fit the base and every extension, then score out of sample those that can matter.
+
+    Held-out folds are refitted for the base, the extension with the lowest IC and every
+    extension that passes the IC test of the verdict rule; the others cannot be the cause
+    and keep ``heldout_error = None`` (saving most of the cost on data without an effect).
+    """
+    base_fit = _full_fit(measurement, models["base"], None)
+    runner.tick(1)
+    names = [name for name in models if name != "base"]
+    jobs = [(measurement, models[name], base_fit.start) for name in names]
+    fits = {"base": base_fit, **dict(zip(names, runner.map(_full_fit, jobs), strict=True))}
+    candidates = {}
+    for name, fit in fits.items():
+        residuals = [m - y for m, y in zip(fit.model, measurement.observed, strict=True)]
+        candidates[name] = Candidate(
+            name,
+            fit,
+            residuals,
+            information_criterion(residuals, fit.n_free),
+            None,
+            structure(residuals, noise),
+        )
+    base_ic = candidates["base"].information_criterion
+    ranked = sorted(names, key=lambda name: candidates[name].information_criterion)
+    scored = ["base", *ranked[:1]] + [
+        name
+        for name in ranked[1:]
+        if base_ic - candidates[name].information_criterion > STRONG_EVIDENCE
+    ]
+    folds = measurement.folds()
+    jobs = [
+        (measurement, models[name], fits[name].start, masks) for name in scored for masks in folds
+    ]
+    results = iter(runner.map(_heldout_squares, jobs))
+    for name in scored:
+        parts = [next(results) for _ in folds]
+        squared = sum(part[0] for part in parts)
+        count = sum(part[1] for part in parts)
+        candidates[name].heldout_error = math.sqrt(squared / count)
+    return candidates["base"], [candidates[name] for name in ranked]
 
 
 def _testable(effect: Effect, measurement: Measurement) -> str | None:
@@ -205,19 +267,28 @@ def _trends(residuals: list[np.ndarray], covariates: dict[str, list[np.ndarray]]
 
 def _supported(candidate: Candidate, base: Candidate, noise: float) -> bool:
     delta = base.information_criterion - candidate.information_criterion
-    if delta <= STRONG_EVIDENCE or candidate.heldout_error >= base.heldout_error:
+    if delta <= STRONG_EVIDENCE or candidate.heldout_error is None:
+        return False
+    if candidate.heldout_error >= base.heldout_error:
         return False
     excess = base.rms**2 - noise**2
     explained = (base.rms**2 - candidate.rms**2) / excess if excess > 0 else 0.0
     return not candidate.structure.systematic or explained >= EXCESS_EXPLAINED
 
 
-def diagnose(data: xr.Dataset, *, progress: bool = False) -> Diagnosis:
+def diagnose(
+    data: xr.Dataset, *, progress: bool = False, workers: int = 1, simulate: bool = False
+) -> Diagnosis:
     """Diagnose a :func:`~nanoblock.measured.load_measurement` Dataset (any kind).
 
     Raises :class:`~nanoblock.diagnosis.validation.DiagnosisError` (a ``DataError``) for
-    data that cannot support a diagnosis, saying what data would.
+    data that cannot support a diagnosis, saying what data would. ``workers`` > 1 fits
+    the candidate models on that many processes (the result does not depend on it).
+    ``simulate`` runs the simulation check (:mod:`nanoblock.diagnosis.simulation`) on the
+    cause, or on the best extension when there is none.
     """
+    if workers < 1:
+        raise ValueError(f"workers = {workers!r} is out of range [1, inf)")
     check_diagnosable(data)
     measurement = Measurement(data)
     noise = noise_level(measurement.observed)
@@ -229,23 +300,24 @@ def diagnose(data: xr.Dataset, *, progress: bool = False) -> Diagnosis:
         for effect in CATALOGUE.values()
         if (reason := _testable(effect, measurement)) is not None
     }
-    steps = (1 + len(testable)) * (1 + len(measurement.folds()))
+    models = {"base": BASE[measurement.kind]}
+    models.update({name: effect.surrogates[measurement.kind] for name, effect in testable.items()})
+    n_folds = len(measurement.folds())
+    steps = len(models) + 2 * n_folds  # the held-out count grows with what the IC supports
     with tqdm(total=steps, desc="diagnosis", disable=not progress, leave=False) as bar:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            base = _candidate("base", measurement, BASE[measurement.kind], noise, bar.update)
-            candidates = [
-                _candidate(effect.id, measurement, surrogate, noise, bar.update, base.fit)
-                for effect in testable.values()
-                if (surrogate := effect.surrogates[measurement.kind])
-            ]
-    candidates.sort(key=lambda c: c.information_criterion)
+        runner = _Runner(workers, bar.update)
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                base, candidates = _fit_candidates(measurement, models, noise, runner)
+        finally:
+            runner.close()
     supported = [c for c in candidates if _supported(c, base, noise)]
     if supported:
         cause = supported[0].id
     else:
         cause = "unexplained" if base.structure.systematic else "none"
-    return Diagnosis(
+    diagnosis = Diagnosis(
         kind=measurement.kind,
         noise=noise,
         base=base,
@@ -257,3 +329,13 @@ def diagnose(data: xr.Dataset, *, progress: bool = False) -> Diagnosis:
         covariates=measurement.covariates,
         signal_label=measurement.signal_label,
     )
+    if simulate:
+        other = diagnosis.extended or diagnosis.best
+        diagnosis.simulation_check = simulation_check(
+            data,
+            base.fit.params,
+            None if other is None else other.id,
+            {} if other is None else other.fit.params,
+            progress=progress,
+        )
+    return diagnosis

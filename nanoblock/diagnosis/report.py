@@ -131,8 +131,9 @@ def _table(candidates: list[Candidate], base: Candidate) -> list[str]:
         "|---|---|---|---|---|---|",
     ]
     for c in [base, *candidates]:
+        heldout = "not scored (IC)" if c.heldout_error is None else f"{c.heldout_error:.4g}"
         lines.append(
-            f"| {c.id} | {c.heldout_error:.4g} | {c.information_criterion:.1f} | "
+            f"| {c.id} | {heldout} | {c.information_criterion:.1f} | "
             f"{base.information_criterion - c.information_criterion:+.1f} | {c.rms:.4g} | "
             f"{'yes' if c.structure.systematic else 'no'} |"
         )
