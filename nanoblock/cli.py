@@ -279,9 +279,7 @@ def diagnose(
 
     with _bad_input(DiagnosisError, DataError, ValueError):
         measurement = load_for_diagnosis(data)
-        result = diagnose(
-            measurement, progress=progress, workers=workers, simulate=simulate
-        )
+        result = diagnose(measurement, progress=progress, workers=workers, simulate=simulate)
     written = write_diagnosis(result, out, data.name)
     gain = result.gain()
     typer.echo(f"cause: {result.cause}")
