@@ -71,10 +71,11 @@ CATALOGUE: dict[str, Effect] = {
         ),
         Effect(
             "back_jumps",
-            "blocks also hop against the stress, thermally, in detailed balance with the "
-            "forward hops (Eyring)",
-            "at low V friction falls towards zero faster than the log law (sinh-like)",
-            {"back_stress": "stress scale of reverse-hop suppression / sigma_a"},
+            "blocks also hop one period back against the stress, thermally, in detailed "
+            "balance with the forward hops (Persson's periodic characteristic)",
+            "at low V friction falls towards zero faster than the log law (asinh, then "
+            "linear below the Maxwell point)",
+            {"elastic_ratio": "u_el / u = E_J b / k1, in (0, 2]"},
             "joint.back_jumps = true",
             {"steady_state": SteadyVariant(back_jumps=True)},
             "a steady-state table reaching very low velocities",
