@@ -148,15 +148,17 @@ def _cause(data) -> str:
     return diagnose(data).cause
 
 
-HIDDEN_EFFECTS = 12
-"""Cases of the hidden-effect test that carry an effect (issue 6 asks for >= 30: the
-suite's time budget allows 12 on 2 cores; the full battery is a follow-up)."""
-HIDDEN_NONE = 4
+HIDDEN_EFFECTS = 30
+"""Cases of the hidden-effect test that carry an effect (issue 6: >= 30). Measured with
+seed 20261122: 28/30 right (a steady saturation and a steady cutoff table called
+``unexplained``), 9/10 ``none`` (one steady table called ``barrier_shape``), 178 s on 2
+processes."""
+HIDDEN_NONE = 10
 """Effect-free cases."""
 HIDDEN_MIN_RATE = 0.9
 
 
-@pytest.mark.battery
+@pytest.mark.slow
 def test_hidden_effects_are_found() -> None:
     """Effects (or none) drawn at random from a fixed seed, in data of every kind made by
     other code paths (tests/diagnosis_synthetic.py): the right id in >= 90 % of the effect
