@@ -17,12 +17,13 @@ temperature.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
+from scipy.stats import norm
 
 from nanoblock.barriers import BOLTZMANN
 from nanoblock.rsf.fit import parameter_covariance
@@ -32,8 +33,16 @@ FloatArray = NDArray[np.float64]
 
 _SIGMA_A, _E_J, _T = 1.0e8, 1.0e9, 300.0
 """Canonical joint used to evaluate S(V; u, v_a): only u and v_a matter."""
-_CLASSES = np.polynomial.hermite_e.hermegauss(5)
-"""Gauss-Hermite nodes and weights of a standard normal (strength classes)."""
+STRENGTH_CLASSES = 16
+_CLASSES = (
+    norm.ppf((np.arange(STRENGTH_CLASSES) + 0.5) / STRENGTH_CLASSES),
+    np.ones(STRENGTH_CLASSES),
+)
+"""Equal-probability strength classes of a standard normal (as the simulator's
+``joint.strength_classes``): nodes at the class medians, equal weights. Each class
+saturates at its own V*, so the class mixture has kinks in z and Gauss-Hermite rules
+converge badly (5 nodes: 7 % shape error at a log-spread of 0.4); the midpoint rule
+converges as 1/n (16 classes: 0.4 %, against 256)."""
 
 
 @dataclass(frozen=True)
@@ -201,9 +210,17 @@ _STARTS = {"u": (15.0, 35.0, 70.0), "v_attempt": (1e-1, 1e2, 1e5)}
 _REFINED_STARTS = 2
 """Best grid starts refined by least squares."""
 _MAX_NFEV = 60
+_PROFILE_NFEV = 10
+"""Evaluations of a profile start (the extension's new parameters held fixed)."""
 """Model evaluations per refinement (each costs one quadrature per strength class)."""
-_RATIO_GRID = (0.5, 0.05, 1.5)
-"""Warm-start grid of elastic_ratio = u_el / u."""
+_EXTRA_GRID = {
+    "elastic_ratio": (0.5, 0.05, 1.5),
+    "strength_spread": (1e-3, 0.2, 0.5),
+    "softening": (0.2, 0.5, 1.0),
+}
+"""Warm-start grids of the dimensionless extras over their physical ranges (u_el / u in
+(0, 2]: k1 >= E_J b / 2; log-spreads of sigma_a from the nested base to 50 %;
+softening exponents)."""
 _EXTRA_START = {
     "elastic_ratio": 0.5,
     "strength_spread": 0.2,
@@ -237,11 +254,11 @@ def _starts(
     factors = (1.0, math.exp(span / 2), math.exp(span)) if missing else (1.0,)
     shift = {"v_saturation": -1.0, "v_theta": 1.0}
     levels = [{k: extra[k] * f ** shift.get(k, -0.5) for k in missing} for f in factors]
-    if "elastic_ratio" in missing:  # over its physical range (0, 2]: k1 >= E_J b / 2
-        for level, ratio in zip(levels, _RATIO_GRID, strict=True):
-            level["elastic_ratio"] = ratio
+    for name in set(missing) & set(_EXTRA_GRID):
+        for level, value in zip(levels, _EXTRA_GRID[name], strict=True):
+            level[name] = value
     warm_starts = [{**warm, **level} for level in levels]
-    reshaped = variant.barrier != SteadyVariant.barrier or variant.back_jumps
+    reshaped = variant.barrier != SteadyVariant.barrier or variant.back_jumps or variant.spread
     return warm_starts + grid if reshaped else warm_starts
 
 
@@ -285,15 +302,24 @@ def fit_steady(
     for i, name in enumerate(names):
         if name == "u":
             lower[i], upper[i] = math.log(2.0), math.log(500.0)
+        elif name == "v_attempt":  # omega_a rho~_max: 1e12 1/s x 0.3 nm ~ 300 m/s
+            lower[i], upper[i] = math.log(1e-8), math.log(1e10)
         elif name == "elastic_ratio":
             lower[i], upper[i] = math.log(1e-4), math.log(_MAX_ELASTIC_RATIO)
         elif name == "strength_spread":
             lower[i], upper[i] = math.log(1e-4), math.log(3.0)
     starts = [pack({n: s[n] for n in names}) for s in _starts(variant, table, start)]
     starts = [np.clip(x0, lower + 1e-9, upper - 1e-9) for x0 in starts]
+    refit = holdout is not None  # a warm refit for held-out rows: fewer evaluations
+    new = np.array([start is not None and name not in start for name in names])
+    if new.any() and not refit:  # profile the warm starts: new parameters at grid values
+        warm = starts[0][~new]
+        starts = [
+            _profiled(residuals, x0, ~new, lower, upper) if np.array_equal(x0[~new], warm) else x0
+            for x0 in starts
+        ]
     costs = [float(np.sum(residuals(x0) ** 2)) for x0 in starts]
     best = None
-    refit = holdout is not None  # a warm refit for held-out rows: fewer evaluations
     for index in np.argsort(costs)[: 1 if refit else _REFINED_STARTS]:
         trial = least_squares(
             residuals, starts[index], bounds=(lower, upper), x_scale="jac",
@@ -306,6 +332,32 @@ def fit_steady(
     variance = float(best.fun @ best.fun) / dof
     errors = _errors(best.jac, variance, params, names, log)
     return SteadyFit(params, errors, steady_model(variant, table, params))
+
+
+def _profiled(
+    residuals: Callable[[FloatArray], FloatArray],
+    x0: FloatArray,
+    free: NDArray[np.bool_],
+    lower: FloatArray,
+    upper: FloatArray,
+) -> FloatArray:
+    """``x0`` with the ``free`` coordinates refitted while the others (an extension's new
+    parameters at a grid value) stay fixed. From the base optimum, a new parameter that
+    reshapes S (a strength spread) first raises the cost until (u, v_a, m) adapt, so a
+    joint fit started there slides back to the nested base model."""
+
+    def partial(y: FloatArray) -> FloatArray:
+        x = x0.copy()
+        x[free] = y
+        return residuals(x)
+
+    result = least_squares(
+        partial, x0[free], bounds=(lower[free], upper[free]), x_scale="jac",
+        max_nfev=_PROFILE_NFEV,
+    )  # fmt: skip
+    x = x0.copy()
+    x[free] = result.x
+    return x
 
 
 def _errors(jac, variance, params, names, log) -> dict[str, float]:
