@@ -150,9 +150,8 @@ def _cause(data) -> str:
 
 HIDDEN_EFFECTS = 30
 """Cases of the hidden-effect test that carry an effect (issue 6: >= 30). Measured with
-seed 20261122: 28/30 right (a steady saturation and a steady cutoff table called
-``unexplained``), 9/10 ``none`` (one steady table called ``barrier_shape``), 178 s on 2
-processes."""
+seed 20261122: 29/30 right (a steady cutoff table called ``unexplained``), 10/10
+``none``, 221 s on 2 processes."""
 HIDDEN_NONE = 10
 """Effect-free cases."""
 HIDDEN_MIN_RATE = 0.9
