@@ -312,7 +312,7 @@ def fit_steady(
     starts = [np.clip(x0, lower + 1e-9, upper - 1e-9) for x0 in starts]
     refit = holdout is not None  # a warm refit for held-out rows: fewer evaluations
     new = np.array([start is not None and name not in start for name in names])
-    if new.any() and not refit:  # profile the warm starts: new parameters at grid values
+    if variant.spread and new.any() and not refit:  # profile warm starts at grid spreads
         warm = starts[0][~new]
         starts = [
             _profiled(residuals, x0, ~new, lower, upper) if np.array_equal(x0[~new], warm) else x0
@@ -342,9 +342,9 @@ def _profiled(
     upper: FloatArray,
 ) -> FloatArray:
     """``x0`` with the ``free`` coordinates refitted while the others (an extension's new
-    parameters at a grid value) stay fixed. From the base optimum, a new parameter that
-    reshapes S (a strength spread) first raises the cost until (u, v_a, m) adapt, so a
-    joint fit started there slides back to the nested base model."""
+    parameters at a grid value) stay fixed. From the base optimum, a strength spread first
+    raises the cost until (u, v_a, m) adapt, so a joint fit started there slides back to
+    the nested base model (the other extensions do not need it on the hidden cases)."""
 
     def partial(y: FloatArray) -> FloatArray:
         x = x0.copy()
