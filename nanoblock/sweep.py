@@ -12,15 +12,24 @@ A failed task (an exception, or its worker dying) is recorded in the manifest wi
 error; the others are kept. Running the same sweep again skips finished stores and
 resumes unfinished ones from their checkpoints. :func:`open_sweep` combines the finished
 stores lazily into one Dataset with dims ``(*keys, seed, sample)``.
+
+Before the tasks start, every worker is warmed once (:func:`warm_up`: the imports, the
+compiled kernels loaded from Numba's cache, zarr's write path), so that these one-off
+costs of a new worker process fall in the sweep's fixed start-up cost, not in its first
+task; :attr:`SweepReport.timings` splits the sweep's wall time into that fixed cost and
+the task phase.
 """
 
 from __future__ import annotations
 
+import asyncio
 import copy
+import importlib
 import itertools
 import json
 import os
 import re
+import tempfile
 import time
 import tomllib
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -40,7 +49,7 @@ from pydantic.fields import FieldInfo
 from tqdm.auto import tqdm
 
 import nanoblock
-from nanoblock.engine import simulate
+from nanoblock.engine import Run, simulate
 from nanoblock.params import Scenario, from_mapping, read_toml
 from nanoblock.store import COORDINATES, SAMPLES, TIME_CHUNK, RunStore, VariableSpec
 
@@ -56,9 +65,46 @@ STATUSES = ("done", "failed", "pending")
 WORKER_ENV = {"NUMBA_NUM_THREADS": "1"}
 """Environment of LocalCluster workers: one Numba thread per single-threaded worker."""
 
-LOCAL_SCHEDULER = {"distributed.scheduler.worker-saturation": 1.0}
-"""LocalCluster scheduler config: a worker holds only the task it runs (the others wait
-in the scheduler's queue for the next free worker, and a dying worker takes no other)."""
+LOCAL_CONFIG = {
+    "distributed.scheduler.worker-saturation": 1.0,
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.worker.memory.monitor-interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+}
+"""Dask config of a LocalCluster. Worker saturation 1: a worker holds only the task it
+runs (the others wait in the scheduler's queue for the next free worker, and a dying
+worker takes no other). The rest quietens Dask's monitoring, which a batch of long
+single-threaded tasks does not need: the statistical profiler (every 10 ms in each
+worker), the event-loop tick (20 ms), the memory (100 ms) and system (500 ms) monitors
+cost the cluster's processes CPU worth 8-15 % of the tasks' own (2 workers on 2 cores,
+runs of a few seconds); 2-2.5 % with these settings, most of it the scheduler's."""
+
+WARM_UP = """
+[joint]
+block_size = 2.75e-9
+shear_modulus = 1.0e9
+threshold_stress = 1.0e8
+attempt_frequency = 1.0e12
+temperature = 300.0
+
+[interface]
+normal_force = 1.0
+hardness = 1.0e8
+n_contacts = 4
+blocks_per_contact = 4
+memory_length = 1e-8
+
+[loading]
+stiffness = 1e6
+steps = [{ velocity = 1e-6, displacement = 1e-9 }]
+
+[run]
+seed = 0
+record_every = 5e-4
+initial_state = "steady"
+"""
+"""The throwaway run of :func:`warm_up`: 16 blocks, 3 samples, a few milliseconds."""
 
 
 class SweepError(ValueError):
@@ -295,15 +341,46 @@ def run_task(scenario_json: str, store: str) -> float:
     return time.perf_counter() - started
 
 
+def warm_up(scenario_json: str | None = None) -> float:
+    """Pay, in this process, the one-off costs of its first task; wall seconds.
+
+    A throwaway run of :data:`WARM_UP` into a temporary store, flushed at every sample,
+    loads the compiled kernels from Numba's cache (or compiles them) and the code paths
+    of creating, appending to and checkpointing a store; with
+    ``scenario_json``, that scenario's run is also set up and advanced to its first sample
+    (t = 0), which loads any kernel its options call from Python. Nothing else is kept.
+    """
+    numba.set_num_threads(1)
+    started = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="nanoblock-warm-up-") as tmp:
+        scenario = from_mapping(tomllib.loads(WARM_UP), source="WARM_UP")
+        simulate(scenario, Path(tmp) / "run.zarr", flush_seconds=0.0)
+    if scenario_json is not None:
+        Run(Scenario.from_json(scenario_json)).step_to_next_sample()
+    return time.perf_counter() - started
+
+
+def warm_workers(client: Client, scenario_json: str | None = None) -> dict[str, Any]:
+    """Run :func:`warm_up` once on every worker of ``client``, all at once; per worker
+    its seconds, or the exception it raised (a worker that fails to warm up is left to
+    fail its tasks, which report the error). Both steps run in a thread of the worker
+    (``asyncio.to_thread``): its event loop keeps answering the scheduler meanwhile, and
+    the first, importing ``nanoblock.sweep``, is passed as standard-library calls, since
+    unpickling a reference to this module would import it in the event loop."""
+    client.run(asyncio.to_thread, importlib.import_module, __name__, on_error="return")
+    return client.run(asyncio.to_thread, warm_up, scenario_json, on_error="return")
+
+
 @contextmanager
 def dask_client(
     scheduler: str | None = None, workers: int | None = None, connect_timeout: float = 10.0
 ) -> Iterator[Client]:
     """A client of the cluster at ``scheduler``, or of a new LocalCluster of ``workers``
-    single-threaded processes (default: one per CPU) with :data:`WORKER_ENV`."""
+    single-threaded processes (default: one per CPU) with :data:`WORKER_ENV` and
+    :data:`LOCAL_CONFIG`."""
     with ExitStack() as stack:
         if scheduler is None:
-            stack.enter_context(dask.config.set(LOCAL_SCHEDULER))
+            stack.enter_context(dask.config.set(LOCAL_CONFIG))
             cluster = stack.enter_context(
                 LocalCluster(
                     n_workers=workers or os.cpu_count() or 1,
@@ -327,10 +404,14 @@ def dask_client(
 
 @dataclass
 class SweepReport:
-    """Outcome of :func:`run_sweep`: the manifest written and the tasks run this time."""
+    """Outcome of :func:`run_sweep`: the manifest written, the tasks run this time, and
+    where the wall time went (seconds): ``cluster_start`` (LocalCluster and client, or
+    connecting to the scheduler), ``warm_up`` (:func:`warm_workers`), ``tasks`` (from
+    the first submission to the last result) and ``cluster_stop``. Empty if nothing ran."""
 
     manifest: dict[str, Any]
     ran: list[str]
+    timings: dict[str, float] = field(default_factory=dict)
 
     def entries(self, status: str) -> list[dict[str, Any]]:
         """Manifest entries of the tasks with this status (``done``, ``failed``, ...)."""
@@ -349,11 +430,13 @@ def run_sweep(
 ) -> SweepReport:
     """Run every unfinished task of ``sweep`` on a Dask cluster, into ``directory``.
 
-    Finished stores are skipped; unfinished ones resume from their checkpoints. The
-    manifest is rewritten after each task, with status ``done`` (and ``wall_seconds``),
-    ``failed`` (and ``error``) or ``pending``. ``task_function(scenario_json, store)``
-    runs one task (default :func:`run_task`). SweepError if the directory holds something
-    else or the scheduler cannot be reached (then nothing is written).
+    Finished stores are skipped; unfinished ones resume from their checkpoints. Every
+    worker is warmed up first (:func:`warm_workers`, with the first pending task's
+    scenario). The manifest is rewritten after each task, with status ``done`` (and
+    ``wall_seconds``), ``failed`` (and ``error``) or ``pending``.
+    ``task_function(scenario_json, store)`` runs one task (default :func:`run_task`).
+    SweepError if the directory holds something else or the scheduler cannot be reached
+    (then nothing is written).
     """
     directory = Path(directory)
     _check_directory(directory, sweep)
@@ -384,8 +467,13 @@ def run_sweep(
     if not pending:
         _write_manifest(directory, manifest)
         return SweepReport(manifest, [])
+    timings: dict[str, float] = {}
+    started = time.perf_counter()
     with dask_client(scheduler, workers, connect_timeout) as client:
         _write_manifest(directory, manifest)
+        connected = time.perf_counter()
+        warm_workers(client, pending[0].scenario.resolved_json())
+        warm = time.perf_counter()
         futures = {
             client.submit(
                 task_function,
@@ -409,7 +497,12 @@ def run_sweep(
             _write_manifest(directory, manifest)
             bar.update()
         bar.close()
-    return SweepReport(manifest, [task.name for task in pending])
+        finished = time.perf_counter()
+    timings["cluster_start"] = connected - started
+    timings["warm_up"] = warm - connected
+    timings["tasks"] = finished - warm
+    timings["cluster_stop"] = time.perf_counter() - finished
+    return SweepReport(manifest, [task.name for task in pending], timings)
 
 
 def open_sweep(directory: str | Path) -> xr.Dataset:

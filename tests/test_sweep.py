@@ -12,7 +12,7 @@ import dask
 import dask.array as da
 import numpy as np
 import pytest
-from distributed import LocalCluster
+from distributed import Client, LocalCluster
 from typer.testing import CliRunner
 
 from nanoblock.cli import app
@@ -28,6 +28,7 @@ from nanoblock.sweep import (
     parse_assignment,
     run_sweep,
     run_task,
+    warm_workers,
 )
 
 TINY = """
@@ -170,9 +171,14 @@ def test_sweep_runs_on_an_existing_scheduler(tiny: Path, tmp_path: Path) -> None
     sweep = Sweep.from_file(tiny, [], n_seeds=2)
     cluster = LocalCluster(n_workers=1, processes=False, dashboard_address=None)
     with cluster:
+        with Client(cluster) as client:
+            warmed = warm_workers(client, sweep.tasks()[0].scenario.resolved_json())
         report = run_sweep(sweep, tmp_path / "sweep", scheduler=cluster.scheduler_address)
+    assert len(warmed) == 1 and all(isinstance(s, float) for s in warmed.values()), warmed
     assert report.ran == ["0000", "0001"]
     assert [entry["status"] for entry in report.manifest["tasks"]] == ["done", "done"]
+    assert set(report.timings) == {"cluster_start", "warm_up", "tasks", "cluster_stop"}
+    assert all(seconds >= 0 for seconds in report.timings.values())
     combined = open_sweep(tmp_path / "sweep")
     assert combined.friction_force.dims == ("seed", "sample")
     np.testing.assert_array_equal(combined.seed, [0, 1])
