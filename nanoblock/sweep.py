@@ -44,6 +44,7 @@ import numba
 import numpy as np
 import xarray as xr
 from distributed import Client, LocalCluster, as_completed
+from numba.core import config as numba_config
 from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 from tqdm.auto import tqdm
@@ -333,9 +334,22 @@ def _check_directory(directory: Path, sweep: Sweep) -> None:
         )
 
 
+def one_numba_thread() -> None:
+    """Run this thread's kernels on one Numba thread.
+
+    Numba's config is reloaded first: a LocalCluster worker gets :data:`WORKER_ENV` from
+    its nanny only after its process has started, and a spawned worker may have imported
+    numba before (with the parent's ``__main__``, e.g. a script importing nanoblock).
+    Launching the thread pool with the stale size would make the next compilation in that
+    worker (kernels not in Numba's cache) fail on the changed NUMBA_NUM_THREADS.
+    """
+    numba_config.reload_config()
+    numba.set_num_threads(1)
+
+
 def run_task(scenario_json: str, store: str) -> float:
     """Run one task into its store (on a worker, one Numba thread); wall seconds."""
-    numba.set_num_threads(1)
+    one_numba_thread()
     started = time.perf_counter()
     simulate(Scenario.from_json(scenario_json), store)
     return time.perf_counter() - started
@@ -350,7 +364,7 @@ def warm_up(scenario_json: str | None = None) -> float:
     ``scenario_json``, that scenario's run is also set up and advanced to its first sample
     (t = 0), which loads any kernel its options call from Python. Nothing else is kept.
     """
-    numba.set_num_threads(1)
+    one_numba_thread()
     started = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="nanoblock-warm-up-") as tmp:
         scenario = from_mapping(tomllib.loads(WARM_UP), source="WARM_UP")

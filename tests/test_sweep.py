@@ -6,6 +6,8 @@ from __future__ import annotations
 import functools
 import json
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import dask
@@ -165,6 +167,26 @@ def test_killed_worker_loses_only_its_task_and_rerun_completes_it(
     after = modification_times(out / "tasks")
     assert {k: v for k, v in after.items() if not k.startswith("0003")} == before
     assert open_sweep(out).friction_force.notnull().any("sample").all()
+
+
+ONE_THREAD_AFTER_IMPORT = """
+import os
+import numba
+from nanoblock.sweep import WORKER_ENV, one_numba_thread
+os.environ.update(WORKER_ENV)  # as a nanny does, once the spawned worker has imported numba
+one_numba_thread()
+numba.njit(lambda x: x + 1)(1)  # a compilation after the thread pool was launched
+print(numba.config.NUMBA_NUM_THREADS, numba.get_num_threads())
+"""
+
+
+def test_one_numba_thread_takes_the_worker_env_set_after_numba_was_imported() -> None:
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_NUM_THREADS"}
+    run = subprocess.run(
+        [sys.executable, "-c", ONE_THREAD_AFTER_IMPORT], env=env, capture_output=True, text=True
+    )
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stdout.split() == ["1", "1"]
 
 
 def test_sweep_runs_on_an_existing_scheduler(tiny: Path, tmp_path: Path) -> None:
