@@ -43,7 +43,7 @@ from scipy.optimize import brentq
 from nanoblock.diagnosis.statistics import noise_level
 from nanoblock.engine import simulate
 from nanoblock.params import Scenario, from_mapping
-from nanoblock.rsf.fit import LOAD_EXPONENT, STIFFNESS, RunData, prepare_runs
+from nanoblock.rsf.fit import LOAD_EXPONENT, STIFFNESS, RunData, prepare_runs, reference_load
 from nanoblock.theory.meanfield import MeanFieldJoint, log_slope, steady_stress
 
 DC_PER_D0 = 0.5
@@ -276,8 +276,9 @@ def simulation_check(
         why = NOT_SIMULATED.get(extension or "", "no extension was diagnosed")
         return {"status": "not_run", "reason": why}
     prepared = prepare_runs(data)
-    forces = [r.normal_force for r in prepared]
-    reference_force = float(np.exp(np.mean(np.log(np.unique(forces)))))
+    reference_force = reference_load(
+        [r.normal_force for r in prepared], extension == "load_dependent_dc"
+    )
     temperature = float(data.attrs.get("temperature", ROOM_TEMPERATURE))
     stiffness = float(base_params[STIFFNESS])
     noise = noise_level([r.mu for r in prepared])

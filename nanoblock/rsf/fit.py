@@ -442,7 +442,7 @@ def _problem(
     )
 
 
-def _reference_load(forces: Sequence[float], wanted: bool) -> float:
+def reference_load(forces: Sequence[float], wanted: bool) -> float:
     """W_ref [N] of a load-dependent memory length: the geometric mean of the runs' loads
     (1 when not wanted); ``DataError`` unless at least two distinct loads are known."""
     if not wanted:
@@ -493,7 +493,7 @@ def _time_series_setup(
     if trend:
         free_names.append(TREND)
         params.setdefault(TREND, 0.0)
-    w_ref = _reference_load([run.normal_force for run in prepared], load_exponent)
+    w_ref = reference_load([run.normal_force for run in prepared], load_exponent)
     if load_exponent:
         free_names.append(LOAD_EXPONENT)
         params.setdefault(LOAD_EXPONENT, 0.0)
@@ -593,7 +593,7 @@ def _clamped_setup(
     params = {**_initial_params(lw, {"mu0": mu_s, "a": 1e-3, "b": 0.0, "dc": 1e-6}, v_drive)}
     params.update(initial)
     free_names = _free_names(lw, free, lw.default_free)
-    w_ref = _reference_load([e[0] for e in experiments], load_exponent)
+    w_ref = reference_load([e[0] for e in experiments], load_exponent)
     if load_exponent:
         free_names.append(LOAD_EXPONENT)
         params.setdefault(LOAD_EXPONENT, 0.0)
