@@ -253,7 +253,7 @@ def integrate_cluster(
 
 
 # ---------------------------------------------------------------- one contact, one segment
-@kernel(inline=True)
+@kernel
 def _fire_time(i, xi, h, t_ref, x_rate, duration, omega_a, table) -> float:
     t, _, _ = next_depinning(
         xi[i] + x_rate * t_ref[i], h[i], x_rate, duration - t_ref[i], omega_a, table

@@ -16,10 +16,9 @@ from nanoblock.kernels._jit import kernel
 
 _HEADER = 8
 _NEGATIVE = 5  # header slot: offset of the table for negative stresses (0: the same)
-_FULL = 6  # header slot: R(1)
 
 
-@kernel(inline=True)
+@kernel
 def _side(x: float, table: np.ndarray) -> int:
     """Start of the table that serves reduced stress x (the second one for x < 0)."""
     return int(table[_NEGATIVE]) if x < 0.0 else 0
@@ -34,11 +33,11 @@ def _hermite(x: float, table: np.ndarray, start: int) -> tuple[float, float]:
     k = min(int(position), n_nodes - 1)
     s = position - k
     h = 1.0 / n_nodes
-    cell = start + _HEADER + 2 * k  # (g, g') pairs
-    g0 = table[cell]
-    d0 = table[cell + 1] * h
-    g1 = table[cell + 2]
-    d1 = table[cell + 3] * h
+    base = start + _HEADER
+    g0 = table[base + k]
+    g1 = table[base + k + 1]
+    d0 = table[base + n_nodes + 1 + k] * h
+    d1 = table[base + n_nodes + 2 + k] * h
     s2 = s * s
     s3 = s2 * s
     value = (
@@ -51,23 +50,21 @@ def _hermite(x: float, table: np.ndarray, start: int) -> tuple[float, float]:
     return value, slope
 
 
-@kernel(inline=True)
+@kernel
 def _cumulative(x: float, table: np.ndarray, start: int) -> float:
     if x <= 0.0:
         return 0.0
-    if x >= 1.0:
-        return table[start + _FULL]
     value, _ = _hermite(x, table, start)
     return x * np.exp(value)
 
 
-@kernel(inline=True)
+@kernel
 def cumulative(x: float, table: np.ndarray) -> float:
     """R(x) = int_0^x r(s) ds for x in [0, 1] (dimensionless)."""
     return _cumulative(x, table, 0)
 
 
-@kernel(inline=True)
+@kernel
 def signed_cumulative(x: float, table: np.ndarray) -> float:
     """R(x) for x in [-1, 1] (odd in x in the base model: escape follows the stress)."""
     if x < 0.0:
@@ -75,7 +72,7 @@ def signed_cumulative(x: float, table: np.ndarray) -> float:
     return _cumulative(x, table, 0)
 
 
-@kernel(inline=True)
+@kernel
 def rate(x: float, table: np.ndarray) -> float:
     """Reduced escape rate r(x) for x in [-1, 1] (exp(-u f(|x|)) in the base model)."""
     magnitude = abs(x)
@@ -85,13 +82,13 @@ def rate(x: float, table: np.ndarray) -> float:
     return np.exp(value) * (1.0 + magnitude * slope)
 
 
-@kernel(inline=True)
+@kernel
 def inverse_cumulative(level: float, table: np.ndarray) -> float:
     """x in [0, 1] with R(x) = ``level`` (0 <= level <= R(1)), by seeded Newton on ln R."""
     return _inverse(level, table, 0)
 
 
-@kernel(inline=True)
+@kernel
 def signed_inverse(level: float, table: np.ndarray) -> float:
     """x in [-1, 1] with signed R(x) = ``level``: the inverse of :func:`signed_cumulative`."""
     if level < 0.0:
@@ -99,17 +96,8 @@ def signed_inverse(level: float, table: np.ndarray) -> float:
     return _inverse(level, table, 0)
 
 
-_SEED_TOLERANCE = 1e-8
-"""Newton stops after a relative step below this: the error left is ~ its square."""
-
-_MAX_NEWTON = 100
-"""Enough for bisection to reach round-off where R is flat (a reverse rate that underflows)."""
-
-
-@kernel(inline=True)
+@kernel
 def _inverse(level: float, table: np.ndarray, start: int) -> float:
-    """Newton on ln x + g(x) = ln ``level``, seeded by the cubic Hermite inverse table
-    (error ~1e-9 where R is smooth in ln R, so one step usually reaches round-off)."""
     if level <= 0.0:
         return 0.0
     n_nodes = int(table[start])
@@ -121,41 +109,23 @@ def _inverse(level: float, table: np.ndarray, start: int) -> float:
     if target <= log_low:
         x = min(np.exp(target - g_zero), 1.0 / n_nodes)
     else:
-        spacing = (log_high - log_low) / n_inverse
-        position = (target - log_low) / spacing
+        position = (target - log_low) / (log_high - log_low) * n_inverse
         k = min(int(position), n_inverse - 1)
         s = position - k
-        cell = start + _HEADER + 2 * (n_nodes + 1) + 2 * k  # (x, dx/d ln R) pairs
-        x0, d0 = table[cell], table[cell + 1] * spacing
-        x1, d1 = table[cell + 2], table[cell + 3] * spacing
-        s2 = s * s
-        s3 = s2 * s
-        seed = (
-            (2 * s3 - 3 * s2 + 1) * x0
-            + (s3 - 2 * s2 + s) * d0
-            + (3 * s2 - 2 * s3) * x1
-            + (s3 - s2) * d1
-        )
-        x = min(max(seed, x0), x1)  # R^-1 is monotone; a steep cell's cubic may overshoot
-    low, high = 0.0, 1.0  # brackets the root; Newton steps that leave it are bisected
-    for _ in range(_MAX_NEWTON):
+        base = start + _HEADER + 2 * (n_nodes + 1)
+        x = (1.0 - s) * table[base + k] + s * table[base + k + 1]
+    for _ in range(30):
         value, slope = _hermite(x, table, start)
         residual = np.log(x) + value - target
-        if residual == 0.0:
-            return x
-        if residual > 0.0:
-            high = x
-        else:
-            low = x
-        derivative = 1.0 / x + slope  # r / R: zero where the rate underflows (R flat)
-        step = residual / derivative if derivative > 0.0 else np.inf
-        if abs(step) <= _SEED_TOLERANCE * x:
-            return x - step
-        x = x - step if low < x - step < high else 0.5 * (low + high)
+        step = residual / (1.0 / x + slope)
+        updated = min(max(x - step, 0.5 * x), 1.0)
+        if abs(updated - x) <= 1e-15 * updated:
+            return updated
+        x = updated
     return x
 
 
-@kernel(inline=True)
+@kernel
 def hazard_between(
     x0: float, x1: float, x_rate: float, duration: float, table: np.ndarray
 ) -> float:
