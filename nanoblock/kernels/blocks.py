@@ -26,7 +26,7 @@ _SHORT_RAMP = 1e-9
 """Ramps shorter than this (in x) are integrated to first order in their length."""
 
 
-@kernel
+@kernel(inline=True)
 def next_depinning(
     x0: float, h: float, x_rate: float, horizon: float, omega_a: float, table: np.ndarray
 ) -> tuple[float, float, float]:

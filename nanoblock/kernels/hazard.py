@@ -18,7 +18,7 @@ _HEADER = 8
 _NEGATIVE = 5  # header slot: offset of the table for negative stresses (0: the same)
 
 
-@kernel
+@kernel(inline=True)
 def _side(x: float, table: np.ndarray) -> int:
     """Start of the table that serves reduced stress x (the second one for x < 0)."""
     return int(table[_NEGATIVE]) if x < 0.0 else 0
@@ -50,7 +50,7 @@ def _hermite(x: float, table: np.ndarray, start: int) -> tuple[float, float]:
     return value, slope
 
 
-@kernel
+@kernel(inline=True)
 def _cumulative(x: float, table: np.ndarray, start: int) -> float:
     if x <= 0.0:
         return 0.0
@@ -58,13 +58,13 @@ def _cumulative(x: float, table: np.ndarray, start: int) -> float:
     return x * np.exp(value)
 
 
-@kernel
+@kernel(inline=True)
 def cumulative(x: float, table: np.ndarray) -> float:
     """R(x) = int_0^x r(s) ds for x in [0, 1] (dimensionless)."""
     return _cumulative(x, table, 0)
 
 
-@kernel
+@kernel(inline=True)
 def signed_cumulative(x: float, table: np.ndarray) -> float:
     """R(x) for x in [-1, 1] (odd in x in the base model: escape follows the stress)."""
     if x < 0.0:
@@ -72,7 +72,7 @@ def signed_cumulative(x: float, table: np.ndarray) -> float:
     return _cumulative(x, table, 0)
 
 
-@kernel
+@kernel(inline=True)
 def rate(x: float, table: np.ndarray) -> float:
     """Reduced escape rate r(x) for x in [-1, 1] (exp(-u f(|x|)) in the base model)."""
     magnitude = abs(x)
@@ -82,13 +82,13 @@ def rate(x: float, table: np.ndarray) -> float:
     return np.exp(value) * (1.0 + magnitude * slope)
 
 
-@kernel
+@kernel(inline=True)
 def inverse_cumulative(level: float, table: np.ndarray) -> float:
     """x in [0, 1] with R(x) = ``level`` (0 <= level <= R(1)), by seeded Newton on ln R."""
     return _inverse(level, table, 0)
 
 
-@kernel
+@kernel(inline=True)
 def signed_inverse(level: float, table: np.ndarray) -> float:
     """x in [-1, 1] with signed R(x) = ``level``: the inverse of :func:`signed_cumulative`."""
     if level < 0.0:
@@ -96,7 +96,7 @@ def signed_inverse(level: float, table: np.ndarray) -> float:
     return _inverse(level, table, 0)
 
 
-@kernel
+@kernel(inline=True)
 def _inverse(level: float, table: np.ndarray, start: int) -> float:
     if level <= 0.0:
         return 0.0
@@ -125,7 +125,7 @@ def _inverse(level: float, table: np.ndarray, start: int) -> float:
     return x
 
 
-@kernel
+@kernel(inline=True)
 def hazard_between(
     x0: float, x1: float, x_rate: float, duration: float, table: np.ndarray
 ) -> float:

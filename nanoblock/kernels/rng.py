@@ -14,12 +14,12 @@ from nanoblock.kernels._jit import kernel
 _TO_UNIT = 1.0 / 9007199254740992.0  # 2^-53
 
 
-@kernel
+@kernel(inline=True)
 def _rotl(value: np.uint64, shift: int) -> np.uint64:
     return (value << np.uint64(shift)) | (value >> np.uint64(64 - shift))
 
 
-@kernel
+@kernel(inline=True)
 def next_uint64(state: np.ndarray) -> np.uint64:
     """Advance one xoshiro256** stream (``state``: uint64[4], modified) and return 64 bits."""
     s0, s1, s2, s3 = state[0], state[1], state[2], state[3]
@@ -35,13 +35,13 @@ def next_uint64(state: np.ndarray) -> np.uint64:
     return result
 
 
-@kernel
+@kernel(inline=True)
 def uniform(state: np.ndarray) -> float:
     """A uniform draw in [0, 1) with 53 random bits."""
     return float(next_uint64(state) >> np.uint64(11)) * _TO_UNIT
 
 
-@kernel
+@kernel(inline=True)
 def standard_exponential(state: np.ndarray) -> float:
     """An Exp(1) draw by inversion, -ln(1 - U), finite for every U in [0, 1)."""
     return -np.log(1.0 - uniform(state))
