@@ -15,6 +15,13 @@ MEAN_AGE_RTOL = 2e-2
 LANDING_RTOL = 1e-4
 """RK4 cluster integration of an isolated block vs the closed-form damped landing."""
 
+MODAL_RTOL = 1e-12
+"""Closed-form run spectra and modal propagation (001/Eq. 21) vs eigh and DOP853 at rtol 1e-12."""
+
+AVALANCHE_ATOL = 1e-8
+"""Exact modal avalanches vs the naive event-restarted DOP853 reference, final z in units of
+rho~_max: the reference's dense output and event times are good to ~1e-11 per restart."""
+
 HAZARD_RTOL = 1e-9
 """Tabulated cumulative hazard vs closed forms (Persson, Dawson) and adaptive quadrature."""
 

@@ -9,9 +9,10 @@ with kappa = k2 / k1 and n_i the number of neighbours (free chain ends). Depinni
 processed in time order with an indexed heap; a block's hazard is settled lazily, only
 when its stress history changes (a neighbour slips) or the segment ends. Avalanches run
 with the slider frozen: the ``reset`` rule releases each depinned block to zero force,
-neighbours fixed; the ``chain`` rule lands an isolated block in closed form and
-integrates Eq. 21, m q'' + m gamma q' = f, by RK4 for clusters, repinning each block
-when its velocity first vanishes.
+neighbours fixed; the ``chain`` rule lands an isolated block in closed form and solves
+Eq. 21, m q'' + m gamma q' = f, exactly for clusters (normal modes of each run of moving
+blocks, :mod:`nanoblock.kernels.modes`), repinning each block when its velocity first
+vanishes; a cluster whose every block would never stop lands exactly at equilibrium.
 """
 
 from __future__ import annotations
@@ -21,12 +22,33 @@ import numpy as np
 from nanoblock.kernels._jit import kernel
 from nanoblock.kernels.blocks import next_depinning
 from nanoblock.kernels.hazard import hazard_between
+from nanoblock.kernels.modes import (
+    combination_root,
+    envelope,
+    propagate,
+    run_spectrum,
+    single_mode_keeps_sign,
+    slow_part,
+    step_matrix,
+)
 from nanoblock.kernels.rng import standard_exponential
 
 _SETTLED = 1e-9
-"""An overdamped block repins once |x| and |v| / omega_1 fall below this."""
+"""Fallback: a block repins once |x| and |v| / omega_1 fall below this (when the proof of
+an event-free future fails, e.g. a degenerate slowest mode)."""
 
 _MAX_SUBSTEPS = 10_000_000
+
+_GRID_PHASE = 0.25
+"""Grid step of the event search: this phase [rad] of the fastest mode, and gamma dt."""
+
+_PROOF_EVERY = 4
+"""Grid steps between two attempts to prove that an avalanche has no event left."""
+
+# rows of the float work array of :func:`integrate_cluster`: per mode slot, then per block
+_W_SQ, _S_SQ, _Q, _P, _Q_OLD, _P_OLD, _BOUND, _WEIGHT_Q, _WEIGHT_P = range(9)
+_Z_EQ, _DEV, _VEL, _HEADING, _LAST_F, _X_EQ, _LAST_X = range(9, 16)
+_MODAL_ROWS = 16
 
 
 @kernel
@@ -141,113 +163,383 @@ def reset_cascade(z, offset, first, kappa, on_depin, moved, queue, queued) -> tu
 
 
 @kernel
-def _accelerate(z, v, moving, n_moving, offset, kappa, omega1_sq, damping, out) -> None:
-    """dv/dt of the moving blocks, v = dz/dt: Eq. 21 in reduced units, z'' = -gamma z' - w1^2 x."""
-    for m in range(n_moving):
-        i = moving[m]
-        out[i] = -damping * v[i] - omega1_sq * (reduced_stress(z, i, kappa) + offset)
+def _join(i, z, offset, kappa, moving, n_moving, in_motion, modal) -> int:
+    """Block i starts moving from rest against its stress; returns the new n_moving."""
+    moving[n_moving] = i
+    in_motion[i] = True
+    modal[_VEL, i] = 0.0
+    modal[_LAST_F, i] = 0.0
+    modal[_HEADING, i] = -1.0 if reduced_stress(z, i, kappa) + offset > 0.0 else 1.0
+    return n_moving + 1
 
 
 @kernel
-def _hermite_at(z0, z1, v0, v1, dt, s) -> float:
-    """Cubic Hermite position at fraction s of a substep from end values and velocities."""
-    s2 = s * s
-    s3 = s2 * s
-    return (
-        (2 * s3 - 3 * s2 + 1) * z0
-        + (s3 - 2 * s2 + s) * dt * v0
-        + (3 * s2 - 2 * s3) * z1
-        + (s3 - s2) * dt * v1
-    )
+def _collect_runs(moving, n_moving, run_start, run_length, run_first, run_size) -> int:
+    """Sort the moving blocks, split them into maximal contiguous runs (start, length),
+    and note each block's run; returns the number of runs."""
+    for m in range(1, n_moving):
+        i = moving[m]
+        k = m
+        while k > 0 and moving[k - 1] > i:
+            moving[k] = moving[k - 1]
+            k -= 1
+        moving[k] = i
+    n_runs = 0
+    for m in range(n_moving):
+        if m > 0 and moving[m] == moving[m - 1] + 1:
+            run_length[n_runs - 1] += 1
+        else:
+            run_start[n_runs] = moving[m]
+            run_length[n_runs] = 1
+            n_runs += 1
+    for r in range(n_runs):
+        for i in range(run_start[r], run_start[r] + run_length[r]):
+            run_first[i] = run_start[r]
+            run_size[i] = run_length[r]
+    return n_runs
+
+
+@kernel
+def _build_modes(z, offset, kappa, omega1_sq, gamma, run_start, run_length, n_runs, vectors, modal):
+    """Spectrum, equilibrium z*, deviation z - z* and modal state (q, p) of every run from
+    the blocks' z and velocities (:mod:`nanoblock.kernels.modes`); mode k of the run that
+    starts at block a lives in slot a + k. Returns the largest modal frequency w [1/s]."""
+    n = z.shape[0]
+    w_sq, s_sq, q, p, z_eq = modal[_W_SQ], modal[_S_SQ], modal[_Q], modal[_P], modal[_Z_EQ]
+    w_max_sq = 0.0
+    for r in range(n_runs):
+        a = run_start[r]
+        last = a + run_length[r] - 1
+        run_spectrum(run_length[r], a > 0, last < n - 1, w_sq, vectors, a)
+        pinned_left = z[a - 1] if a > 0 else 0.0
+        pinned_right = z[last + 1] if last < n - 1 else 0.0
+        for i in range(a, last + 1):
+            z_eq[i] = 0.0
+        for k in range(run_length[r]):
+            m = a + k
+            stiffness = 1.0 + kappa * w_sq[m]  # a_k: w_sq holds lambda_k until below
+            loading, position, velocity = 0.0, 0.0, 0.0
+            for i in range(a, last + 1):
+                loading += vectors[i, k] * offset
+                position += vectors[i, k] * z[i]
+                velocity += vectors[i, k] * modal[_VEL, i]
+            loading -= kappa * (vectors[a, k] * pinned_left + vectors[last, k] * pinned_right)
+            q_eq = -loading / stiffness
+            for i in range(a, last + 1):
+                z_eq[i] += vectors[i, k] * q_eq
+            q[m] = position - q_eq
+            p[m] = velocity
+            w_sq[m] = omega1_sq * stiffness
+            s_sq[m] = 0.25 * gamma * gamma - w_sq[m]
+            w_max_sq = max(w_max_sq, w_sq[m])
+        for i in range(a, last + 1):
+            modal[_DEV, i] = z[i] - z_eq[i]
+    return np.sqrt(w_max_sq)
+
+
+@kernel
+def _watch_list(z, offset, kappa, in_motion, run_start, run_length, n_runs, modal, watch) -> int:
+    """List the pinned neighbours of moving blocks with their present stress x_j and x_j*,
+    their stress with the moving neighbours at equilibrium; returns their number."""
+    n = z.shape[0]
+    n_watch = 0
+    for r in range(n_runs):
+        for j in (run_start[r] - 1, run_start[r] + run_length[r]):
+            if 0 <= j < n and not (n_watch > 0 and watch[n_watch - 1] == j):
+                watch[n_watch] = j
+                n_watch += 1
+                modal[_LAST_X, j] = reduced_stress(z, j, kappa) + offset
+                modal[_X_EQ, j] = modal[_LAST_X, j]
+                for i in (j - 1, j + 1):
+                    if 0 <= i < n and in_motion[i]:
+                        modal[_X_EQ, j] += kappa * modal[_DEV, i]
+    return n_watch
+
+
+@kernel
+def _block_motion(run_start, run_length, n_runs, vectors, q, p, modal) -> None:
+    """Deviation z - z* and velocity of every moving block from its run's modes."""
+    for r in range(n_runs):
+        a = run_start[r]
+        for i in range(a, a + run_length[r]):
+            deviation, velocity = 0.0, 0.0
+            for k in range(run_length[r]):
+                deviation += vectors[i, k] * q[a + k]
+                velocity += vectors[i, k] * p[a + k]
+            modal[_DEV, i] = deviation
+            modal[_VEL, i] = velocity
+
+
+@kernel
+def _event_weights(j, kappa, in_motion, run_first, run_size, vectors, slots, modal) -> int:
+    """Modal weights of block j's event function: its velocity along its heading if it
+    moves, else minus kappa times its moving neighbours' deviations (its stress minus
+    x_j*). Returns the number of terms."""
+    n_terms = 0
+    for i in (j - 1, j, j + 1):
+        if 0 <= i < in_motion.shape[0] and in_motion[i] and (i == j) == in_motion[j]:
+            for k in range(run_size[i]):
+                slots[n_terms] = run_first[i] + k
+                if i == j:
+                    modal[_WEIGHT_Q, n_terms] = 0.0
+                    modal[_WEIGHT_P, n_terms] = modal[_HEADING, j] * vectors[i, k]
+                else:
+                    modal[_WEIGHT_Q, n_terms] = -kappa * vectors[i, k]
+                    modal[_WEIGHT_P, n_terms] = 0.0
+                n_terms += 1
+    return n_terms
+
+
+@kernel
+def _proven_quiet(
+    run_start,
+    run_length,
+    n_runs,
+    run_first,
+    run_size,
+    watch,
+    n_watch,
+    in_motion,
+    vectors,
+    modal,
+    gamma,
+    kappa,
+) -> bool:
+    """Whether no moving block will ever turn and no pinned neighbour ever join.
+
+    Velocity of block i: its run's slowest exponential c0 e^{-(gamma/2 - s_0) tau} must
+    outweigh the sum of the :func:`~nanoblock.kernels.modes.envelope` bounds of all other
+    terms, with c0 along the block's heading (an exact test for a run of one block);
+    stress of a pinned neighbour j: |x_j*| plus kappa times the bounds of its moving
+    neighbours' deviations must stay below 1.
+    """
+    w_sq, s_sq, q, p, bound = modal[_W_SQ], modal[_S_SQ], modal[_Q], modal[_P], modal[_BOUND]
+    half_gamma = 0.5 * gamma
+    for r in range(n_runs):
+        a = run_start[r]
+        length = run_length[r]
+        if s_sq[a] < 0.0 or (length > 1 and s_sq[a] == 0.0):
+            return False
+        pull = -(w_sq[a] * q[a] + half_gamma * p[a])
+        if length == 1:
+            initial = p[a] if p[a] != 0.0 else pull
+            if not single_mode_keeps_sign(p[a], pull, s_sq[a]):
+                return False
+            if initial * vectors[a, 0] * modal[_HEADING, a] <= 0.0:
+                return False
+            continue
+        slowest = half_gamma - np.sqrt(s_sq[a])
+        slow, fast = slow_part(p[a], pull, s_sq[a])
+        for m in range(a + 1, a + length):
+            pull = -(w_sq[m] * q[m] + half_gamma * p[m])
+            bound[m] = envelope(p[m], pull, s_sq[m], gamma, slowest)
+        for i in range(a, a + length):
+            leading = vectors[i, 0] * slow
+            rest = abs(vectors[i, 0] * fast)
+            for k in range(1, length):
+                rest += abs(vectors[i, k]) * bound[a + k]
+            if not (rest < abs(leading) and leading * modal[_HEADING, i] > 0.0):
+                return False
+    for r in range(n_runs):
+        for m in range(run_start[r], run_start[r] + run_length[r]):
+            bound[m] = envelope(q[m], p[m] + half_gamma * q[m], s_sq[m], gamma, 0.0)
+    for w in range(n_watch):
+        j = watch[w]
+        reach = abs(modal[_X_EQ, j])
+        for i in (j - 1, j + 1):
+            if 0 <= i < in_motion.shape[0] and in_motion[i]:
+                for k in range(run_size[i]):
+                    reach += kappa * abs(vectors[i, k]) * bound[run_first[i] + k]
+        if reach >= 1.0:
+            return False
+    return True
 
 
 @kernel
 def integrate_cluster(
-    z, offset, first, kappa, omega1_sq, damping, on_depin, moved
+    z: np.ndarray,
+    offset: float,
+    first: int,
+    kappa: float,
+    omega1_sq: float,
+    damping: float,
+    on_depin: np.ndarray,
+    moved: np.ndarray,
 ) -> tuple[int, int]:
-    """Integrate Eq. 21 for the avalanche started by block ``first`` (slider frozen).
+    """Resolve the avalanche started by block ``first`` (slider frozen; 001/Eq. 21).
 
-    RK4 on (z, v) of the moving blocks, pinned ones fixed; a pinned block next to a moving
-    one joins when |x| >= 1; a moving block repins when its velocity first vanishes (the
-    zero located by linear interpolation of v, the position by cubic Hermite), or, when
-    overdamped, once |x| and |v| / omega_1 are below 1e-9. ``z`` changes in place.
-    Returns (depinnings, number of distinct blocks listed in ``moved``).
+    Exact and event-driven (:mod:`nanoblock.kernels.modes`): between events every run of
+    moving blocks follows the closed-form damped motion of its normal modes. A grid of
+    steps (a quarter radian of the fastest mode, gamma dt <= 1/4) brackets the events,
+    which are then located to round-off on the closed form: a moving block turns (repins
+    where it is) when its velocity first vanishes; a pinned neighbour joins, from rest,
+    when |x| reaches 1. Every few steps the runs are tested for a future without events
+    (each velocity dominated by its run's slowest exponential, each neighbour's stress
+    bounded below 1); the moving blocks then land exactly at their equilibrium x = 0,
+    which an overdamped run approaches without ever stopping. Failing that proof, a block
+    stops once |x| and |v| / omega_1 are below 1e-9. ``z`` changes in place. Returns
+    (depinnings, number of distinct blocks listed in ``moved``).
     """
     n = z.shape[0]
+    gamma = damping
     omega_1 = np.sqrt(omega1_sq)
-    dt = 0.2 / max(omega_1 * np.sqrt(1.0 + 4.0 * kappa), damping)
-    half = 0.5 * dt
-    v = np.zeros(n)
-    direction = np.zeros(n)
+    modal = np.empty((_MODAL_ROWS, n))
+    w_sq, s_sq, q, p, q_old, p_old = (
+        modal[_W_SQ],
+        modal[_S_SQ],
+        modal[_Q],
+        modal[_P],
+        modal[_Q_OLD],
+        modal[_P_OLD],
+    )
+    dev, vel, heading, last_f = modal[_DEV], modal[_VEL], modal[_HEADING], modal[_LAST_F]
+    blocks = np.empty((8, n), dtype=np.int64)
+    moving, run_start, run_length, run_first = blocks[0], blocks[1], blocks[2], blocks[3]
+    run_size, watch, slots, stopped = blocks[4], blocks[5], blocks[6], blocks[7]
     in_motion = np.zeros(n, dtype=np.bool_)
-    moving = np.empty(n, dtype=np.int64)
-    was_moving = np.empty(n, dtype=np.int64)
-    stage_z = z.copy()
-    stage_v = np.zeros(n)
-    z0 = np.empty(n)
-    v0 = np.empty(n)
-    acc = np.zeros((4, n))
-    n_moving, events, n_moved = 0, 0, 0
-    join = first
-    for _ in range(_MAX_SUBSTEPS):
-        if join >= 0:  # the starting block enters here; later joins happen below
-            moving[n_moving] = join
-            n_moving += 1
-            in_motion[join] = True
-            v[join] = 0.0
-            direction[join] = -1.0 if reduced_stress(z, join, kappa) + offset > 0.0 else 1.0
-            n_moved = _record_depinning(join, on_depin, moved, n_moved)
-            events += 1
-            join = -1
+    vectors = np.empty((n, min(n, 8)))
+    step = np.empty((4, n))
+    n_moving = _join(first, z, offset, kappa, moving, 0, in_motion, modal)
+    n_moved = _record_depinning(first, on_depin, moved, 0)
+    events, n_stopped, substeps = 1, 0, 0
+    while (n_moving > 0 or n_stopped > 0) and substeps < _MAX_SUBSTEPS:
+        # ---- a new segment: runs, modes, watched neighbours; those over threshold join
+        n_runs = _collect_runs(moving, n_moving, run_start, run_length, run_first, run_size)
+        longest = 0
+        for r in range(n_runs):
+            longest = max(longest, run_length[r])
+        if longest > vectors.shape[1]:
+            vectors = np.empty((n, min(n, 2 * longest)))
+        w_max = _build_modes(
+            z, offset, kappa, omega1_sq, gamma, run_start, run_length, n_runs, vectors, modal
+        )
+        n_watch = _watch_list(
+            z, offset, kappa, in_motion, run_start, run_length, n_runs, modal, watch
+        )
+        n_before = n_moving
+        for m in range(n_watch + n_stopped):
+            j = watch[m] if m < n_watch else stopped[m - n_watch]
+            if not in_motion[j] and abs(reduced_stress(z, j, kappa) + offset) >= 1.0:
+                n_moving = _join(j, z, offset, kappa, moving, n_moving, in_motion, modal)
+                n_moved = _record_depinning(j, on_depin, moved, n_moved)
+                events += 1
+        n_stopped = 0
+        if n_moving > n_before:
+            continue
         if n_moving == 0:
             break
+        dt = _GRID_PHASE / max(w_max, gamma)
         for m in range(n_moving):
-            i = moving[m]
-            z0[i] = z[i]
-            v0[i] = v[i]
-            stage_z[i] = z[i]
-            stage_v[i] = v[i]
-        _accelerate(stage_z, stage_v, moving, n_moving, offset, kappa, omega1_sq, damping, acc[0])
-        for stage in range(1, 4):
-            scale = dt if stage == 3 else half
+            k = moving[m]
+            step[0, k], step[1, k], step[2, k], step[3, k] = step_matrix(
+                w_sq[k], s_sq[k], gamma, dt
+            )
+        # ---- grid steps until an event
+        while substeps < _MAX_SUBSTEPS:
+            substeps += 1
+            if substeps % _PROOF_EVERY == 0 and _proven_quiet(
+                run_start,
+                run_length,
+                n_runs,
+                run_first,
+                run_size,
+                watch,
+                n_watch,
+                in_motion,
+                vectors,
+                modal,
+                gamma,
+                kappa,
+            ):
+                for m in range(n_moving):
+                    z[moving[m]] = modal[_Z_EQ, moving[m]]
+                return events, n_moved
+            for m in range(n_moving):
+                k = moving[m]
+                q_old[k], p_old[k] = q[k], p[k]
+                q[k] = step[0, k] * q_old[k] + step[1, k] * p_old[k]
+                p[k] = step[2, k] * q_old[k] + step[3, k] * p_old[k]
+            _block_motion(run_start, run_length, n_runs, vectors, q, p, modal)
+            t_event, event_block, event_joins = np.inf, -1, False
+            for m in range(n_moving + n_watch):
+                j = moving[m] if m < n_moving else watch[m - n_moving]
+                if in_motion[j]:  # a turn: heading * v from > 0 to <= 0
+                    f_old, f_new, constant = last_f[j], heading[j] * vel[j], 0.0
+                    crossed = f_old > 0.0 and f_new <= 0.0
+                else:  # a join: |x| reaches 1
+                    x = modal[_X_EQ, j]
+                    for i in (j - 1, j + 1):
+                        if 0 <= i < n and in_motion[i]:
+                            x -= kappa * dev[i]
+                    crossed = abs(x) >= 1.0
+                    threshold = 1.0 if x > 0.0 else -1.0
+                    f_old, f_new = modal[_LAST_X, j] - threshold, x - threshold
+                    constant = modal[_X_EQ, j] - threshold
+                    modal[_LAST_X, j] = x
+                if crossed:
+                    n_terms = _event_weights(
+                        j, kappa, in_motion, run_first, run_size, vectors, slots, modal
+                    )
+                    t = combination_root(
+                        0.0,
+                        dt,
+                        f_old,
+                        f_new,
+                        constant,
+                        slots,
+                        modal[_WEIGHT_Q],
+                        modal[_WEIGHT_P],
+                        n_terms,
+                        q_old,
+                        p_old,
+                        w_sq,
+                        s_sq,
+                        gamma,
+                    )
+                    if t < t_event:
+                        t_event, event_block, event_joins = t, j, not in_motion[j]
+            if event_block < 0:
+                for m in range(n_moving):  # fallback: blocks at rest at equilibrium stop
+                    i = moving[m]
+                    if abs(vel[i]) < _SETTLED * omega_1:
+                        x = 0.0  # x = A (z - z*) = U diag(a) q
+                        for k in range(run_size[i]):
+                            slot = run_first[i] + k
+                            x += vectors[i, k] * w_sq[slot] / omega1_sq * q[slot]
+                        if abs(x) < _SETTLED:
+                            stopped[n_stopped] = i
+                            n_stopped += 1
+                if n_stopped == 0:
+                    for m in range(n_moving):
+                        last_f[moving[m]] = heading[moving[m]] * vel[moving[m]]
+                    continue
+                t_event = dt
+            # ---- the event: every mode to t_event; blocks that turned stop, one joins
+            if t_event < dt:
+                for m in range(n_moving):
+                    k = moving[m]
+                    q[k], p[k] = propagate(q_old[k], p_old[k], w_sq[k], s_sq[k], gamma, t_event)
+                _block_motion(run_start, run_length, n_runs, vectors, q, p, modal)
             for m in range(n_moving):
                 i = moving[m]
-                previous_v = v0[i] if stage == 1 else v0[i] + half * acc[stage - 2, i]
-                stage_z[i] = z0[i] + scale * previous_v
-                stage_v[i] = v0[i] + scale * acc[stage - 1, i]
-            _accelerate(
-                stage_z, stage_v, moving, n_moving, offset, kappa, omega1_sq, damping, acc[stage]
-            )
-        for m in range(n_moving):
-            i = moving[m]
-            z[i] = z0[i] + dt / 6.0 * (6.0 * v0[i] + dt * (acc[0, i] + acc[1, i] + acc[2, i]))
-            v[i] = v0[i] + dt / 6.0 * (acc[0, i] + 2.0 * acc[1, i] + 2.0 * acc[2, i] + acc[3, i])
-            stage_z[i] = z[i]
-            was_moving[m] = i
-        n_was_moving = n_moving
-        m = 0
-        while m < n_moving:  # repinning
-            i = moving[m]
-            turned = v0[i] * direction[i] > 0.0 and v[i] * direction[i] <= 0.0
-            x = reduced_stress(z, i, kappa) + offset
-            settled = abs(x) < _SETTLED and abs(v[i]) < _SETTLED * omega_1
-            if turned:
-                z[i] = _hermite_at(z0[i], z[i], v0[i], v[i], dt, v0[i] / (v0[i] - v[i]))
-            if turned or settled:
-                stage_z[i] = z[i]
-                v[i] = 0.0
-                in_motion[i] = False
-                n_moving -= 1
-                moving[m] = moving[n_moving]
-            else:
-                m += 1
-        for m in range(n_was_moving):  # pinned blocks pushed over threshold join
-            i = was_moving[m]
-            for j in (i - 1, i, i + 1):
-                if join < 0 and 0 <= j < n and not in_motion[j]:
-                    if abs(reduced_stress(z, j, kappa) + offset) >= 1.0:
-                        join = j
-        if n_moving == 0 and join < 0:
+                z[i] = modal[_Z_EQ, i] + dev[i]
+                if i == event_block or (last_f[i] > 0.0 and heading[i] * vel[i] <= 0.0):
+                    stopped[n_stopped] = i
+                    n_stopped += 1
+                last_f[i] = heading[i] * vel[i]
+            for m in range(n_stopped):
+                in_motion[stopped[m]] = False
+                vel[stopped[m]] = 0.0
+            n_kept = 0
+            for m in range(n_moving):
+                if in_motion[moving[m]]:
+                    moving[n_kept] = moving[m]
+                    n_kept += 1
+            n_moving = n_kept
+            if event_joins:
+                n_moving = _join(event_block, z, offset, kappa, moving, n_moving, in_motion, modal)
+                n_moved = _record_depinning(event_block, on_depin, moved, n_moved)
+                events += 1
             break
     return events, n_moved
 

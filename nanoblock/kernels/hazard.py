@@ -16,6 +16,7 @@ from nanoblock.kernels._jit import kernel
 
 _HEADER = 8
 _NEGATIVE = 5  # header slot: offset of the table for negative stresses (0: the same)
+_FULL = 6  # header slot: R(1)
 
 
 @kernel(inline=True)
@@ -33,11 +34,11 @@ def _hermite(x: float, table: np.ndarray, start: int) -> tuple[float, float]:
     k = min(int(position), n_nodes - 1)
     s = position - k
     h = 1.0 / n_nodes
-    base = start + _HEADER
-    g0 = table[base + k]
-    g1 = table[base + k + 1]
-    d0 = table[base + n_nodes + 1 + k] * h
-    d1 = table[base + n_nodes + 2 + k] * h
+    cell = start + _HEADER + 2 * k  # (g, g') pairs
+    g0 = table[cell]
+    d0 = table[cell + 1] * h
+    g1 = table[cell + 2]
+    d1 = table[cell + 3] * h
     s2 = s * s
     s3 = s2 * s
     value = (
@@ -54,6 +55,8 @@ def _hermite(x: float, table: np.ndarray, start: int) -> tuple[float, float]:
 def _cumulative(x: float, table: np.ndarray, start: int) -> float:
     if x <= 0.0:
         return 0.0
+    if x >= 1.0:
+        return table[start + _FULL]
     value, _ = _hermite(x, table, start)
     return x * np.exp(value)
 
@@ -96,8 +99,17 @@ def signed_inverse(level: float, table: np.ndarray) -> float:
     return _inverse(level, table, 0)
 
 
+_SEED_TOLERANCE = 1e-8
+"""Newton stops after a relative step below this: the error left is ~ its square."""
+
+_MAX_NEWTON = 100
+"""Enough for bisection to reach round-off where R is flat (a reverse rate that underflows)."""
+
+
 @kernel(inline=True)
 def _inverse(level: float, table: np.ndarray, start: int) -> float:
+    """Newton on ln x + g(x) = ln ``level``, seeded by the cubic Hermite inverse table
+    (error ~1e-9 where R is smooth in ln R, so one step usually reaches round-off)."""
     if level <= 0.0:
         return 0.0
     n_nodes = int(table[start])
@@ -109,19 +121,37 @@ def _inverse(level: float, table: np.ndarray, start: int) -> float:
     if target <= log_low:
         x = min(np.exp(target - g_zero), 1.0 / n_nodes)
     else:
-        position = (target - log_low) / (log_high - log_low) * n_inverse
+        spacing = (log_high - log_low) / n_inverse
+        position = (target - log_low) / spacing
         k = min(int(position), n_inverse - 1)
         s = position - k
-        base = start + _HEADER + 2 * (n_nodes + 1)
-        x = (1.0 - s) * table[base + k] + s * table[base + k + 1]
-    for _ in range(30):
+        cell = start + _HEADER + 2 * (n_nodes + 1) + 2 * k  # (x, dx/d ln R) pairs
+        x0, d0 = table[cell], table[cell + 1] * spacing
+        x1, d1 = table[cell + 2], table[cell + 3] * spacing
+        s2 = s * s
+        s3 = s2 * s
+        seed = (
+            (2 * s3 - 3 * s2 + 1) * x0
+            + (s3 - 2 * s2 + s) * d0
+            + (3 * s2 - 2 * s3) * x1
+            + (s3 - s2) * d1
+        )
+        x = min(max(seed, x0), x1)  # R^-1 is monotone; a steep cell's cubic may overshoot
+    low, high = 0.0, 1.0  # brackets the root; Newton steps that leave it are bisected
+    for _ in range(_MAX_NEWTON):
         value, slope = _hermite(x, table, start)
         residual = np.log(x) + value - target
-        step = residual / (1.0 / x + slope)
-        updated = min(max(x - step, 0.5 * x), 1.0)
-        if abs(updated - x) <= 1e-15 * updated:
-            return updated
-        x = updated
+        if residual == 0.0:
+            return x
+        if residual > 0.0:
+            high = x
+        else:
+            low = x
+        derivative = 1.0 / x + slope  # r / R: zero where the rate underflows (R flat)
+        step = residual / derivative if derivative > 0.0 else np.inf
+        if abs(step) <= _SEED_TOLERANCE * x:
+            return x - step
+        x = x - step if low < x - step < high else 0.5 * (low + high)
     return x
 
 
