@@ -23,6 +23,7 @@ from nanoblock.kernels._jit import kernel
 from nanoblock.kernels.blocks import next_depinning
 from nanoblock.kernels.hazard import hazard_between
 from nanoblock.kernels.modes import (
+    combination_at,
     combination_root,
     envelope,
     propagate,
@@ -43,7 +44,11 @@ _GRID_PHASE = 0.25
 """Grid step of the event search: this phase [rad] of the fastest mode, and gamma dt."""
 
 _PROOF_EVERY = 4
-"""Grid steps between two attempts to prove that an avalanche has no event left."""
+"""Fewest grid steps between two attempts to prove that an avalanche has no event left."""
+
+_HORIZON = 100.0
+"""E-folds of the slowest mode after which a monotone stress that has not reached its
+threshold is taken never to reach it (it lies within e^-100 of its limit)."""
 
 # rows of the float work array of :func:`integrate_cluster`: per mode slot, then per block
 _W_SQ, _S_SQ, _Q, _P, _Q_OLD, _P_OLD, _BOUND, _WEIGHT_Q, _WEIGHT_P = range(9)
@@ -124,7 +129,7 @@ def isolated_landing(x: float, neighbours: int, eta: float, kappa: float) -> flo
 
 
 # ---------------------------------------------------------------- avalanches (slider frozen)
-@kernel
+@kernel(inline=True)
 def _record_depinning(i, on_depin, moved, n_moved) -> int:
     if on_depin[i] == 0:
         moved[n_moved] = i
@@ -162,7 +167,7 @@ def reset_cascade(z, offset, first, kappa, on_depin, moved, queue, queued) -> tu
     return events, n_moved
 
 
-@kernel
+@kernel(inline=True)
 def _join(i, z, offset, kappa, moving, n_moving, in_motion, modal) -> int:
     """Block i starts moving from rest against its stress; returns the new n_moving."""
     moving[n_moving] = i
@@ -173,7 +178,7 @@ def _join(i, z, offset, kappa, moving, n_moving, in_motion, modal) -> int:
     return n_moving + 1
 
 
-@kernel
+@kernel(inline=True)
 def _collect_runs(moving, n_moving, run_start, run_length, run_first, run_size) -> int:
     """Sort the moving blocks, split them into maximal contiguous runs (start, length),
     and note each block's run; returns the number of runs."""
@@ -199,7 +204,7 @@ def _collect_runs(moving, n_moving, run_start, run_length, run_first, run_size) 
     return n_runs
 
 
-@kernel
+@kernel(inline=True)
 def _build_modes(z, offset, kappa, omega1_sq, gamma, run_start, run_length, n_runs, vectors, modal):
     """Spectrum, equilibrium z*, deviation z - z* and modal state (q, p) of every run from
     the blocks' z and velocities (:mod:`nanoblock.kernels.modes`); mode k of the run that
@@ -237,7 +242,7 @@ def _build_modes(z, offset, kappa, omega1_sq, gamma, run_start, run_length, n_ru
     return np.sqrt(w_max_sq)
 
 
-@kernel
+@kernel(inline=True)
 def _watch_list(z, offset, kappa, in_motion, run_start, run_length, n_runs, modal, watch) -> int:
     """List the pinned neighbours of moving blocks with their present stress x_j and x_j*,
     their stress with the moving neighbours at equilibrium; returns their number."""
@@ -256,7 +261,7 @@ def _watch_list(z, offset, kappa, in_motion, run_start, run_length, n_runs, moda
     return n_watch
 
 
-@kernel
+@kernel(inline=True)
 def _block_motion(run_start, run_length, n_runs, vectors, q, p, modal) -> None:
     """Deviation z - z* and velocity of every moving block from its run's modes."""
     for r in range(n_runs):
@@ -270,7 +275,7 @@ def _block_motion(run_start, run_length, n_runs, vectors, q, p, modal) -> None:
             modal[_VEL, i] = velocity
 
 
-@kernel
+@kernel(inline=True)
 def _event_weights(j, kappa, in_motion, run_first, run_size, vectors, slots, modal) -> int:
     """Modal weights of block j's event function: its velocity along its heading if it
     moves, else minus kappa times its moving neighbours' deviations (its stress minus
@@ -290,28 +295,15 @@ def _event_weights(j, kappa, in_motion, run_first, run_size, vectors, slots, mod
     return n_terms
 
 
-@kernel
-def _proven_quiet(
-    run_start,
-    run_length,
-    n_runs,
-    run_first,
-    run_size,
-    watch,
-    n_watch,
-    in_motion,
-    vectors,
-    modal,
-    gamma,
-    kappa,
-) -> bool:
-    """Whether no moving block will ever turn and no pinned neighbour ever join.
+@kernel(inline=True)
+def _time_to_steady(run_start, run_length, n_runs, vectors, modal, gamma) -> float:
+    """0 if no moving block will ever turn, else a guess of how long [s] this proof will
+    keep failing (inf: a turn is certain, or nothing is known).
 
     Velocity of block i: its run's slowest exponential c0 e^{-(gamma/2 - s_0) tau} must
     outweigh the sum of the :func:`~nanoblock.kernels.modes.envelope` bounds of all other
-    terms, with c0 along the block's heading (an exact test for a run of one block);
-    stress of a pinned neighbour j: |x_j*| plus kappa times the bounds of its moving
-    neighbours' deviations must stay below 1.
+    terms, with c0 along the block's heading; a run of one block has an exact test. The
+    guess lets the excess decay at the rate that separates the slowest term from the rest.
     """
     w_sq, s_sq, q, p, bound = modal[_W_SQ], modal[_S_SQ], modal[_Q], modal[_P], modal[_BOUND]
     half_gamma = 0.5 * gamma
@@ -319,16 +311,17 @@ def _proven_quiet(
         a = run_start[r]
         length = run_length[r]
         if s_sq[a] < 0.0 or (length > 1 and s_sq[a] == 0.0):
-            return False
+            return np.inf  # an underdamped spectrum: every block will turn
         pull = -(w_sq[a] * q[a] + half_gamma * p[a])
         if length == 1:
             initial = p[a] if p[a] != 0.0 else pull
             if not single_mode_keeps_sign(p[a], pull, s_sq[a]):
-                return False
+                return np.inf  # the block will turn
             if initial * vectors[a, 0] * modal[_HEADING, a] <= 0.0:
-                return False
+                return np.inf
             continue
         slowest = half_gamma - np.sqrt(s_sq[a])
+        separation = np.sqrt(s_sq[a]) - (np.sqrt(s_sq[a + 1]) if s_sq[a + 1] > 0.0 else 0.0)
         slow, fast = slow_part(p[a], pull, s_sq[a])
         for m in range(a + 1, a + length):
             pull = -(w_sq[m] * q[m] + half_gamma * p[m])
@@ -338,21 +331,82 @@ def _proven_quiet(
             rest = abs(vectors[i, 0] * fast)
             for k in range(1, length):
                 rest += abs(vectors[i, k]) * bound[a + k]
-            if not (rest < abs(leading) and leading * modal[_HEADING, i] > 0.0):
-                return False
-    for r in range(n_runs):
-        for m in range(run_start[r], run_start[r] + run_length[r]):
-            bound[m] = envelope(q[m], p[m] + half_gamma * q[m], s_sq[m], gamma, 0.0)
+            if leading * modal[_HEADING, i] <= 0.0:
+                return np.inf  # the slowest term turns the block, or nothing is known
+            if rest >= abs(leading):
+                return np.log(rest / abs(leading)) / separation
+    return 0.0
+
+
+@kernel(inline=True)
+def _first_join(
+    watch, n_watch, in_motion, run_first, run_size, vectors, slots, modal, gamma, kappa, dt
+) -> tuple[float, int]:
+    """Earliest join (time [s] from now, block) when no moving block will ever turn: then
+    every velocity keeps the sign of its heading, so a pinned block whose moving
+    neighbours share a heading has a monotone stress, from x_j now to x_j*; it joins iff
+    |x_j*| >= 1, at the crossing, bracketed by doubling and located to round-off. Between
+    neighbours of opposite headings the :func:`~nanoblock.kernels.modes.envelope` bound
+    must keep |x_j| < 1. Returns (inf, -1) if no block will join, (inf, -2) if unknown.
+    """
+    w_sq, s_sq, q, p = modal[_W_SQ], modal[_S_SQ], modal[_Q], modal[_P]
+    first_time, first_block = np.inf, -1
     for w in range(n_watch):
         j = watch[w]
-        reach = abs(modal[_X_EQ, j])
+        limit = modal[_X_EQ, j]
+        shared, mixed, reach, slowest = 0.0, False, 0.0, 0.5 * gamma
         for i in (j - 1, j + 1):
             if 0 <= i < in_motion.shape[0] and in_motion[i]:
+                mixed = mixed or shared * modal[_HEADING, i] < 0.0
+                shared = modal[_HEADING, i]
+                a = run_first[i]
+                slowest = min(slowest, 0.5 * gamma - np.sqrt(max(s_sq[a], 0.0)))
                 for k in range(run_size[i]):
-                    reach += kappa * abs(vectors[i, k]) * bound[run_first[i] + k]
-        if reach >= 1.0:
-            return False
-    return True
+                    m = a + k
+                    drift = envelope(q[m], p[m] + 0.5 * gamma * q[m], s_sq[m], gamma, 0.0)
+                    reach += kappa * abs(vectors[i, k]) * drift
+        if mixed:
+            if abs(limit) + reach >= 1.0:
+                return np.inf, -2
+            continue
+        if abs(limit) < 1.0:
+            continue
+        threshold = 1.0 if limit > 0.0 else -1.0
+        n_terms = _event_weights(j, kappa, in_motion, run_first, run_size, vectors, slots, modal)
+        weight_q, weight_p, shift = modal[_WEIGHT_Q], modal[_WEIGHT_P], limit - threshold
+        f_lo, slope = combination_at(
+            0.0, shift, slots, weight_q, weight_p, n_terms, q, p, w_sq, s_sq, gamma
+        )
+        lo, hi = 0.0, max(dt, -f_lo / slope if f_lo * slope < 0.0 else 0.0)
+        f_hi, _ = combination_at(
+            hi, shift, slots, weight_q, weight_p, n_terms, q, p, w_sq, s_sq, gamma
+        )
+        while (f_hi > 0.0) == (f_lo > 0.0) and hi < min(first_time, _HORIZON / slowest):
+            lo, f_lo = hi, f_hi
+            hi *= 2.0
+            f_hi, _ = combination_at(
+                hi, shift, slots, weight_q, weight_p, n_terms, q, p, w_sq, s_sq, gamma
+            )
+        if (f_hi > 0.0) != (f_lo > 0.0):
+            t = combination_root(
+                lo,
+                hi,
+                f_lo,
+                f_hi,
+                shift,
+                slots,
+                weight_q,
+                weight_p,
+                n_terms,
+                q,
+                p,
+                w_sq,
+                s_sq,
+                gamma,
+            )
+            if t < first_time:
+                first_time, first_block = t, j
+    return first_time, first_block
 
 
 @kernel
@@ -435,87 +489,77 @@ def integrate_cluster(
                 w_sq[k], s_sq[k], gamma, dt
             )
         # ---- grid steps until an event
+        next_proof = substeps + 1
         while substeps < _MAX_SUBSTEPS:
             substeps += 1
-            if substeps % _PROOF_EVERY == 0 and _proven_quiet(
-                run_start,
-                run_length,
-                n_runs,
-                run_first,
-                run_size,
-                watch,
-                n_watch,
-                in_motion,
-                vectors,
-                modal,
-                gamma,
-                kappa,
-            ):
+            exact_join = False
+            if substeps >= next_proof:
+                wait = _time_to_steady(run_start, run_length, n_runs, vectors, modal, gamma)
+                next_proof = substeps + _PROOF_EVERY + int(min(0.25 * wait / dt, _MAX_SUBSTEPS))
+                if wait == 0.0:
+                    t_event, event_block = _first_join(
+                        watch, n_watch, in_motion, run_first, run_size, vectors, slots, modal,
+                        gamma, kappa, dt,
+                    )  # fmt: skip
+                    if event_block == -1:  # nothing will ever happen: land at equilibrium
+                        for m in range(n_moving):
+                            z[moving[m]] = modal[_Z_EQ, moving[m]]
+                        return events, n_moved
+                    exact_join = event_block >= 0
+            if exact_join:  # straight to the join, from the present state
+                event_joins = True
                 for m in range(n_moving):
-                    z[moving[m]] = modal[_Z_EQ, moving[m]]
-                return events, n_moved
-            for m in range(n_moving):
-                k = moving[m]
-                q_old[k], p_old[k] = q[k], p[k]
-                q[k] = step[0, k] * q_old[k] + step[1, k] * p_old[k]
-                p[k] = step[2, k] * q_old[k] + step[3, k] * p_old[k]
-            _block_motion(run_start, run_length, n_runs, vectors, q, p, modal)
-            t_event, event_block, event_joins = np.inf, -1, False
-            for m in range(n_moving + n_watch):
-                j = moving[m] if m < n_moving else watch[m - n_moving]
-                if in_motion[j]:  # a turn: heading * v from > 0 to <= 0
-                    f_old, f_new, constant = last_f[j], heading[j] * vel[j], 0.0
-                    crossed = f_old > 0.0 and f_new <= 0.0
-                else:  # a join: |x| reaches 1
-                    x = modal[_X_EQ, j]
-                    for i in (j - 1, j + 1):
-                        if 0 <= i < n and in_motion[i]:
-                            x -= kappa * dev[i]
-                    crossed = abs(x) >= 1.0
-                    threshold = 1.0 if x > 0.0 else -1.0
-                    f_old, f_new = modal[_LAST_X, j] - threshold, x - threshold
-                    constant = modal[_X_EQ, j] - threshold
-                    modal[_LAST_X, j] = x
-                if crossed:
-                    n_terms = _event_weights(
-                        j, kappa, in_motion, run_first, run_size, vectors, slots, modal
-                    )
-                    t = combination_root(
-                        0.0,
-                        dt,
-                        f_old,
-                        f_new,
-                        constant,
-                        slots,
-                        modal[_WEIGHT_Q],
-                        modal[_WEIGHT_P],
-                        n_terms,
-                        q_old,
-                        p_old,
-                        w_sq,
-                        s_sq,
-                        gamma,
-                    )
-                    if t < t_event:
-                        t_event, event_block, event_joins = t, j, not in_motion[j]
-            if event_block < 0:
-                for m in range(n_moving):  # fallback: blocks at rest at equilibrium stop
-                    i = moving[m]
-                    if abs(vel[i]) < _SETTLED * omega_1:
-                        x = 0.0  # x = A (z - z*) = U diag(a) q
-                        for k in range(run_size[i]):
-                            slot = run_first[i] + k
-                            x += vectors[i, k] * w_sq[slot] / omega1_sq * q[slot]
-                        if abs(x) < _SETTLED:
-                            stopped[n_stopped] = i
-                            n_stopped += 1
-                if n_stopped == 0:
-                    for m in range(n_moving):
-                        last_f[moving[m]] = heading[moving[m]] * vel[moving[m]]
-                    continue
-                t_event = dt
+                    q_old[moving[m]], p_old[moving[m]] = q[moving[m]], p[moving[m]]
+            else:  # one grid step; events located within it
+                for m in range(n_moving):
+                    k = moving[m]
+                    q_old[k], p_old[k] = q[k], p[k]
+                    q[k] = step[0, k] * q_old[k] + step[1, k] * p_old[k]
+                    p[k] = step[2, k] * q_old[k] + step[3, k] * p_old[k]
+                _block_motion(run_start, run_length, n_runs, vectors, q, p, modal)
+                t_event, event_block, event_joins = np.inf, -1, False
+                for m in range(n_moving + n_watch):
+                    j = moving[m] if m < n_moving else watch[m - n_moving]
+                    if in_motion[j]:  # a turn: heading * v from > 0 to <= 0
+                        f_old, f_new, constant = last_f[j], heading[j] * vel[j], 0.0
+                        crossed = f_old > 0.0 and f_new <= 0.0
+                    else:  # a join: |x| reaches 1
+                        x = modal[_X_EQ, j]
+                        for i in (j - 1, j + 1):
+                            if 0 <= i < n and in_motion[i]:
+                                x -= kappa * dev[i]
+                        crossed = abs(x) >= 1.0
+                        threshold = 1.0 if x > 0.0 else -1.0
+                        f_old, f_new = modal[_LAST_X, j] - threshold, x - threshold
+                        constant = modal[_X_EQ, j] - threshold
+                        modal[_LAST_X, j] = x
+                    if crossed:
+                        n_terms = _event_weights(
+                            j, kappa, in_motion, run_first, run_size, vectors, slots, modal
+                        )
+                        t = combination_root(
+                            0.0, dt, f_old, f_new, constant, slots, modal[_WEIGHT_Q],
+                            modal[_WEIGHT_P], n_terms, q_old, p_old, w_sq, s_sq, gamma,
+                        )  # fmt: skip
+                        if t < t_event:
+                            t_event, event_block, event_joins = t, j, not in_motion[j]
+                if event_block < 0:
+                    for m in range(n_moving):  # fallback: blocks at rest at equilibrium stop
+                        i = moving[m]
+                        if abs(vel[i]) < _SETTLED * omega_1:
+                            x = 0.0  # x = A (z - z*) = U diag(a) q
+                            for k in range(run_size[i]):
+                                slot = run_first[i] + k
+                                x += vectors[i, k] * w_sq[slot] / omega1_sq * q[slot]
+                            if abs(x) < _SETTLED:
+                                stopped[n_stopped] = i
+                                n_stopped += 1
+                    if n_stopped == 0:
+                        for m in range(n_moving):
+                            last_f[moving[m]] = heading[moving[m]] * vel[moving[m]]
+                        continue
             # ---- the event: every mode to t_event; blocks that turned stop, one joins
-            if t_event < dt:
+            if event_block >= 0:
                 for m in range(n_moving):
                     k = moving[m]
                     q[k], p[k] = propagate(q_old[k], p_old[k], w_sq[k], s_sq[k], gamma, t_event)

@@ -85,9 +85,10 @@ def damped_basis(s_sq: float, t: float) -> tuple[float, float]:
         c = 1.0 + u / 2.0 * (1.0 + u / 12.0 * (1.0 + u / 30.0 * (1.0 + u / 56.0)))
         s = t * (1.0 + u / 6.0 * (1.0 + u / 20.0 * (1.0 + u / 42.0 * (1.0 + u / 72.0))))
         return c, s
-    if s_sq > 0.0:
+    if s_sq > 0.0:  # |st| > 0.1: e^{st} - e^{-st} loses at most a digit
         rate = np.sqrt(s_sq)
-        return np.cosh(rate * t), np.sinh(rate * t) / rate
+        grow = np.exp(rate * t)
+        return 0.5 * (grow + 1.0 / grow), 0.5 * (grow - 1.0 / grow) / rate
     frequency = np.sqrt(-s_sq)
     return np.cos(frequency * t), np.sin(frequency * t) / frequency
 
@@ -119,7 +120,7 @@ def step_matrix(
     )
 
 
-@kernel
+@kernel(inline=True)
 def combination_at(
     t: float,
     constant: float,
@@ -132,15 +133,20 @@ def combination_at(
     w_sq: np.ndarray,
     s_sq: np.ndarray,
     gamma: float,
-) -> float:
-    """constant + sum_j (weight_q[j] q_m(t) + weight_p[j] p_m(t)), m = slots[j], each mode
-    propagated for t [s] from (q0[m], p0[m])."""
-    total = constant
+) -> tuple[float, float]:
+    """f(t) = constant + sum_j (weight_q[j] q_m(t) + weight_p[j] p_m(t)), m = slots[j], each
+    mode propagated for t [s] from (q0[m], p0[m]), and its slope df/dt (q' = p,
+    p' = -gamma p - w^2 q)."""
+    value, slope = 0.0, 0.0
     for j in range(n_terms):
         m = slots[j]
-        q, p = propagate(q0[m], p0[m], w_sq[m], s_sq[m], gamma, t)
-        total += weight_q[j] * q + weight_p[j] * p
-    return total
+        c, s = damped_basis(s_sq[m], t)
+        q = q0[m] * c + (p0[m] + 0.5 * gamma * q0[m]) * s
+        p = p0[m] * c - (w_sq[m] * q0[m] + 0.5 * gamma * p0[m]) * s
+        value += weight_q[j] * q + weight_p[j] * p
+        slope += weight_q[j] * p - weight_p[j] * (gamma * p + w_sq[m] * q)
+    decay = np.exp(-0.5 * gamma * t)
+    return constant + decay * value, decay * slope
 
 
 @kernel
@@ -162,33 +168,34 @@ def combination_root(
 ) -> float:
     """A zero of :func:`combination_at` in [lo, hi] [s], where it changes sign.
 
-    Illinois false position, bisecting whenever two steps fail to halve the bracket,
-    until the bracket is a few ulps wide; returns the end with the smaller |f|.
+    Newton steps kept inside the shrinking bracket (false position to start; bisection
+    when a step leaves the bracket or three steps fail to halve it) until the Newton
+    correction or the bracket is a few ulps.
     """
-    widths = (np.inf, np.inf)  # the bracket width two steps ago and one step ago
-    side = 0
+    tolerance = 4.0 * np.finfo(np.float64).eps
+    widths = (np.inf, np.inf, np.inf)  # the bracket width three, two and one steps ago
+    t = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
     for _ in range(_ROOT_ITERATIONS):
         if f_lo == 0.0 or f_hi == 0.0:
             return lo if f_lo == 0.0 else hi
-        if hi - lo <= 4.0 * np.finfo(np.float64).eps * max(abs(lo), abs(hi)):
+        if hi - lo <= tolerance * max(abs(lo), abs(hi)):
             break
-        t = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
         if not lo < t < hi or hi - lo > 0.5 * widths[0]:
             t = 0.5 * (lo + hi)
-        widths = (widths[1], hi - lo)
-        f = combination_at(
+        widths = (widths[1], widths[2], hi - lo)
+        f, slope = combination_at(
             t, constant, slots, weight_q, weight_p, n_terms, q0, p0, w_sq, s_sq, gamma
         )
+        if f == 0.0:
+            return t
         if (f > 0.0) == (f_hi > 0.0):
             hi, f_hi = t, f
-            if side == 1:
-                f_lo *= 0.5
-            side = 1
         else:
             lo, f_lo = t, f
-            if side == -1:
-                f_hi *= 0.5
-            side = -1
+        correction = f / slope if slope != 0.0 else np.inf
+        if abs(correction) <= tolerance * abs(t) and lo <= t - correction <= hi:
+            return t - correction
+        t -= correction
     return lo if abs(f_lo) < abs(f_hi) else hi
 
 
