@@ -303,7 +303,9 @@ class Run(_Section):
     record_every: Positive = Field(description="simulated time between stored samples [s]")
     initial_state: Literal["unloaded", "steady"] = Field("unloaded")
     step_slip: Positive | None = Field(
-        None, description="slider slip per internal step [m]; default rho~_max / 4"
+        None,
+        description="slider slip per internal step [m]; default rho~_max / 4 with a finite "
+        "spring, unlimited with a rigid one",
     )
     snapshot_every: int = Field(0, ge=0, description="store block snapshots every N samples")
 
@@ -334,8 +336,14 @@ class Scenario(_Section):
 
     @property
     def step_slip(self) -> float:
-        """Resolved slider slip per internal step [m]."""
-        return self.run.step_slip if self.run.step_slip is not None else self.joint.rho_max / 4
+        """Resolved slider slip per internal step [m].
+
+        A finite spring needs short steps (the slider's velocity is predicted from the
+        previous step); a rigid one (K = inf) prescribes the slider path, so the blocks'
+        exact ramps run uninterrupted to the next sample or segment end (inf)."""
+        if self.run.step_slip is not None:
+            return self.run.step_slip
+        return np.inf if self.loading.stiffness == np.inf else self.joint.rho_max / 4
 
     def with_seed(self, seed: int) -> Scenario:
         """Copy of the scenario with ``run.seed`` set."""

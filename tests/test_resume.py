@@ -32,7 +32,7 @@ slip = "reset"
 [interface]
 normal_force = 1.0
 hardness = 1.0e8
-n_contacts = 100
+n_contacts = 300
 blocks_per_contact = 40
 memory_length = 5e-8
 aging_m = 0.05
@@ -52,7 +52,7 @@ record_every = 5e-4
 initial_state = "steady"
 snapshot_every = 10
 """
-"""Velocity step, hold and reload with ageing, renewal and block snapshots: ~4 s of work on
+"""Velocity step, hold and reload with ageing, renewal and block snapshots: ~5 s of work on
 one thread, 281 samples."""
 
 

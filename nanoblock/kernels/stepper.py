@@ -9,7 +9,8 @@ the start of the next step, or at once, iterated to convergence, before a stored
 The steps are taken on the slip scale, so the cost follows events, not simulated time;
 in transients a step may also change the spring force K |V_L - V| dt by at most
 ``force_step`` F (a fraction of alpha F, so the slider velocity changes by a few percent
-per step and the prediction lags little).
+per step and the prediction lags little). A rigid spring (K = inf) needs no prediction:
+the slider moves with the load point, velocity steps included.
 
 ``slider`` is a one-element record array of :data:`nanoblock.kernels.layout.SLIDER`;
 ``strength`` and ``tables`` the strength classes of :mod:`.layout`; ``protocol`` is
@@ -87,6 +88,8 @@ def advance_to(
     s = slider[0]
     while s.time < t_stop:
         _, load_velocity, segment_end = load_point(s.time, protocol)
+        if params.stiffness == np.inf:  # a rigid spring: the slider is the load point
+            s.velocity = load_velocity
         target = min(t_stop, segment_end)
         dt = target - s.time
         if s.velocity != 0.0:
