@@ -22,6 +22,10 @@ AVALANCHE_ATOL = 1e-8
 """Exact modal avalanches vs the naive event-restarted DOP853 reference, final z in units of
 rho~_max: the reference's dense output and event times are good to ~1e-11 per restart."""
 
+LANDING_EXACT_RTOL = 1e-13
+"""Exact modal cluster integration of an isolated block vs the closed-form damped landing
+(001/Eq. 21), relative to its initial stress (measured 2.5e-16)."""
+
 HAZARD_RTOL = 1e-9
 """Tabulated cumulative hazard vs closed forms (Persson, Dawson) and adaptive quadrature."""
 

@@ -46,6 +46,10 @@ _GRID_PHASE = 0.25
 _PROOF_EVERY = 4
 """Fewest grid steps between two attempts to prove that an avalanche has no event left."""
 
+_PROOF_PATIENCE = 0.25
+"""Fraction of a failed proof's estimated wait before the next attempt (the estimate
+overshoots: waiting the whole of it cost 25 % more time per avalanche than a quarter)."""
+
 _HORIZON = 100.0
 """E-folds of the slowest mode after which a monotone stress that has not reached its
 threshold is taken never to reach it (it lies within e^-100 of its limit)."""
@@ -53,7 +57,8 @@ threshold is taken never to reach it (it lies within e^-100 of its limit)."""
 # rows of the float work array of :func:`integrate_cluster`: per mode slot, then per block
 _W_SQ, _S_SQ, _Q, _P, _Q_OLD, _P_OLD, _BOUND, _WEIGHT_Q, _WEIGHT_P = range(9)
 _Z_EQ, _DEV, _VEL, _HEADING, _LAST_F, _X_EQ, _LAST_X = range(9, 16)
-_MODAL_ROWS = 16
+_STEP = 16  # four rows: the one-step map of each mode slot
+_MODAL_ROWS = 20
 
 
 @kernel
@@ -171,7 +176,7 @@ def reset_cascade(z, offset, first, kappa, on_depin, moved, queue, queued) -> tu
 def _join(i, z, offset, kappa, moving, n_moving, in_motion, modal) -> int:
     """Block i starts moving from rest against its stress; returns the new n_moving."""
     moving[n_moving] = i
-    in_motion[i] = True
+    in_motion[i] = 1
     modal[_VEL, i] = 0.0
     modal[_LAST_F, i] = 0.0
     modal[_HEADING, i] = -1.0 if reduced_stress(z, i, kappa) + offset > 0.0 else 1.0
@@ -374,38 +379,41 @@ def _first_join(
         threshold = 1.0 if limit > 0.0 else -1.0
         n_terms = _event_weights(j, kappa, in_motion, run_first, run_size, vectors, slots, modal)
         weight_q, weight_p, shift = modal[_WEIGHT_Q], modal[_WEIGHT_P], limit - threshold
+        lo = 0.0
         f_lo, slope = combination_at(
-            0.0, shift, slots, weight_q, weight_p, n_terms, q, p, w_sq, s_sq, gamma
+            lo, shift, slots, weight_q, weight_p, n_terms, q, p, w_sq, s_sq, gamma
         )
-        lo, hi = 0.0, max(dt, -f_lo / slope if f_lo * slope < 0.0 else 0.0)
-        f_hi, _ = combination_at(
-            hi, shift, slots, weight_q, weight_p, n_terms, q, p, w_sq, s_sq, gamma
-        )
-        while (f_hi > 0.0) == (f_lo > 0.0) and hi < min(first_time, _HORIZON / slowest):
-            lo, f_lo = hi, f_hi
-            hi *= 2.0
-            f_hi, _ = combination_at(
-                hi, shift, slots, weight_q, weight_p, n_terms, q, p, w_sq, s_sq, gamma
+        stride = -f_lo / slope if f_lo * slope < 0.0 else dt
+        while lo + stride < min(first_time, _HORIZON / slowest):  # Newton march to x_j = +-1
+            t = lo + stride
+            f, slope = combination_at(
+                t, shift, slots, weight_q, weight_p, n_terms, q, p, w_sq, s_sq, gamma
             )
-        if (f_hi > 0.0) != (f_lo > 0.0):
-            t = combination_root(
-                lo,
-                hi,
-                f_lo,
-                f_hi,
-                shift,
-                slots,
-                weight_q,
-                weight_p,
-                n_terms,
-                q,
-                p,
-                w_sq,
-                s_sq,
-                gamma,
-            )
-            if t < first_time:
-                first_time, first_block = t, j
+            if (f > 0.0) != (f_lo > 0.0):
+                first_time = combination_root(
+                    lo,
+                    t,
+                    f_lo,
+                    f,
+                    shift,
+                    slots,
+                    weight_q,
+                    weight_p,
+                    n_terms,
+                    q,
+                    p,
+                    w_sq,
+                    s_sq,
+                    gamma,
+                )
+                first_block = j
+                break
+            lo, f_lo = t, f
+            if f * slope < 0.0:
+                stride = -f / slope
+                if stride <= 4.0 * np.finfo(np.float64).eps * t:  # converged from one side
+                    first_time, first_block = t + stride, j
+                    break
     return first_time, first_block
 
 
@@ -447,12 +455,13 @@ def integrate_cluster(
         modal[_P_OLD],
     )
     dev, vel, heading, last_f = modal[_DEV], modal[_VEL], modal[_HEADING], modal[_LAST_F]
-    blocks = np.empty((8, n), dtype=np.int64)
+    blocks = np.empty((9, n), dtype=np.int64)
     moving, run_start, run_length, run_first = blocks[0], blocks[1], blocks[2], blocks[3]
     run_size, watch, slots, stopped = blocks[4], blocks[5], blocks[6], blocks[7]
-    in_motion = np.zeros(n, dtype=np.bool_)
+    in_motion = blocks[8]
+    in_motion[:] = 0
     vectors = np.empty((n, min(n, 8)))
-    step = np.empty((4, n))
+    step = modal[_STEP : _STEP + 4]
     n_moving = _join(first, z, offset, kappa, moving, 0, in_motion, modal)
     n_moved = _record_depinning(first, on_depin, moved, 0)
     events, n_stopped, substeps = 1, 0, 0
@@ -489,13 +498,15 @@ def integrate_cluster(
                 w_sq[k], s_sq[k], gamma, dt
             )
         # ---- grid steps until an event
-        next_proof = substeps + 1
+        next_proof = substeps + (1 if longest == 1 else _PROOF_EVERY)  # joined from rest
         while substeps < _MAX_SUBSTEPS:
             substeps += 1
             exact_join = False
             if substeps >= next_proof:
                 wait = _time_to_steady(run_start, run_length, n_runs, vectors, modal, gamma)
-                next_proof = substeps + _PROOF_EVERY + int(min(0.25 * wait / dt, _MAX_SUBSTEPS))
+                next_proof = (
+                    substeps + _PROOF_EVERY + int(min(_PROOF_PATIENCE * wait / dt, _MAX_SUBSTEPS))
+                )
                 if wait == 0.0:
                     t_event, event_block = _first_join(
                         watch, n_watch, in_motion, run_first, run_size, vectors, slots, modal,
@@ -572,7 +583,7 @@ def integrate_cluster(
                     n_stopped += 1
                 last_f[i] = heading[i] * vel[i]
             for m in range(n_stopped):
-                in_motion[stopped[m]] = False
+                in_motion[stopped[m]] = 0
                 vel[stopped[m]] = 0.0
             n_kept = 0
             for m in range(n_moving):
