@@ -11,7 +11,13 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from nanoblock.kernels.chain import integrate_cluster, reduced_stress
-from nanoblock.kernels.modes import combination_root, propagate, run_spectrum, step_matrix
+from nanoblock.kernels.modes import (
+    combination_root,
+    propagate,
+    run_spectrum,
+    step_matrix,
+    tabled_spectrum,
+)
 from tests.tolerances import AVALANCHE_ATOL, MODAL_RTOL
 
 ODE = {"method": "DOP853", "rtol": 1e-12, "atol": 1e-14}
@@ -36,7 +42,7 @@ def run_modes(length: int, left_fixed: bool, right_fixed: bool) -> tuple[np.ndar
 
 @pytest.mark.parametrize("kappa", [0.3, 1.0, 3.0])
 @pytest.mark.parametrize("ends", [(False, False), (True, True), (False, True), (True, False)])
-@pytest.mark.parametrize("length", range(1, 9))
+@pytest.mark.parametrize("length", [*range(1, 9), 17, 40])
 def test_run_spectra_match_eigh(length: int, ends: tuple[bool, bool], kappa: float) -> None:
     """Closed-form spectra of A = I + kappa L vs numpy.linalg.eigh of the chain's own
     stress matrix restricted to a run, a pinned block beside each fixed end."""
@@ -52,6 +58,9 @@ def test_run_spectra_match_eigh(length: int, ends: tuple[bool, bool], kappa: flo
     np.testing.assert_allclose(
         a_run @ vectors, vectors * (1.0 + kappa * eigenvalues), atol=MODAL_RTOL * (1 + 4 * kappa)
     )
+    tabled = np.empty(length), np.empty((length, length))
+    tabled_spectrum(length, left_fixed, right_fixed, *tabled, 0)
+    assert np.array_equal(tabled[0], eigenvalues) and np.array_equal(tabled[1], vectors)
 
 
 def modal_trajectory(z, v, run, kappa, omega1_sq, gamma, offset, times) -> np.ndarray:

@@ -76,6 +76,54 @@ def run_spectrum(
             vectors[first + i, k] *= scale
 
 
+TABLED_LENGTH = 16
+"""Runs up to this long take their spectra from :data:`SPECTRA` instead of trigonometry."""
+
+
+def _spectrum_table() -> np.ndarray:
+    """Eigenvalues then row-major eigenvectors of every run of 1..TABLED_LENGTH blocks and
+    end type (index left_fixed + 2 right_fixed), behind an offset header of 4 x (L + 1)."""
+    header = 4 * (TABLED_LENGTH + 1)
+    sizes = [length + length * length for length in range(1, TABLED_LENGTH + 1)]
+    table = np.zeros(header + 4 * sum(sizes))
+    position = header
+    for kind in range(4):
+        for length in range(1, TABLED_LENGTH + 1):
+            eigenvalues, vectors = np.empty(length), np.empty((length, length))
+            run_spectrum(length, kind % 2 == 1, kind >= 2, eigenvalues, vectors, 0)
+            table[kind * (TABLED_LENGTH + 1) + length] = position
+            table[position : position + length] = eigenvalues
+            table[position + length : position + length + length * length] = vectors.ravel()
+            position += length + length * length
+    return table
+
+
+SPECTRA = _spectrum_table()
+
+
+@kernel(inline=True)
+def tabled_spectrum(
+    length: int,
+    left_fixed: bool,
+    right_fixed: bool,
+    eigenvalues: np.ndarray,
+    vectors: np.ndarray,
+    first: int,
+) -> None:
+    """:func:`run_spectrum`, read from :data:`SPECTRA` when the run is short enough."""
+    if length > TABLED_LENGTH:
+        run_spectrum(length, left_fixed, right_fixed, eigenvalues, vectors, first)
+        return
+    kind = (1 if left_fixed else 0) + (2 if right_fixed else 0)
+    position = int(SPECTRA[kind * (TABLED_LENGTH + 1) + length])
+    for k in range(length):
+        eigenvalues[first + k] = SPECTRA[position + k]
+    position += length
+    for i in range(length):
+        for k in range(length):
+            vectors[first + i, k] = SPECTRA[position + i * length + k]
+
+
 @kernel(inline=True)
 def damped_basis(s_sq: float, t: float) -> tuple[float, float]:
     """(C, S) = (cosh(st), sinh(st)/s) for s^2 > 0, (cos(|s|t), sin(|s|t)/|s|) for s^2 < 0,
