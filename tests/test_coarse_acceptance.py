@@ -167,7 +167,7 @@ def test_spike_direct_effect_is_alpha_mu0_within_ten_percent() -> None:
     assert float(result.a_eq30) < 0.8 * float(result.a_theory)
 
 
-@pytest.mark.slow
+@pytest.mark.battery
 def test_stick_slip_onset_is_b_minus_a_over_dc_within_ten_percent() -> None:
     """D0 = 0.3 um. As in 001 (Eq. 12), A is the spike's (4000 contacts); B and Dc come
     from an aging-law fit of a step pair (4000 contacts) with A held; they predict
@@ -177,7 +177,12 @@ def test_stick_slip_onset_is_b_minus_a_over_dc_within_ten_percent() -> None:
     +1.9 % with sweep seeds 0 and 100. A sweep at 1.1-1.4 times it with 2000 contacts
     scattered by -16 % and +13 % between the same seeds (the line through the two softest
     runs extrapolates over 10-25 % of K). The renewal model's own linear theory
-    (nanoblock.coarse.stickslip.renewal_onset) and 001/Eq. 10's pulsation are printed."""
+    (nanoblock.coarse.stickslip.renewal_onset) and 001/Eq. 10's pulsation are printed.
+    A battery check (``pytest -m battery``), not in .ci/run: one sweep's onset carries a
+    delta-method standard error of ~50 % (a realisation after a round-off change of the
+    kernels: -10.9 % +- 49 %, lambda T = -0.46, -0.71, -0.62 at the three stiffnesses), so
+    a single 8-minute sweep cannot resolve the 10 %; a sound check pools several sweep
+    seeds, which does not fit the suite's budget."""
     direct = spike(spike_run(ONSET_D0))
     pair = simulate(_interface_base(step_pair(ONSET_D0), ONSET_D0 / 2e-6 / 100, ONSET_D0, 4000))
     fit = fit_transient(pair, "aging", hold={"a": float(direct.a)})
