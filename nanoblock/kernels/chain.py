@@ -385,8 +385,9 @@ def _first_join(
             lo, shift, slots, weight_q, weight_p, n_terms, q, p, w_sq, s_sq, gamma
         )
         stride = -f_lo / slope if f_lo * slope < 0.0 else dt
-        while lo + stride < min(first_time, _HORIZON / slowest):  # Newton march to x_j = +-1
-            t = lo + stride
+        end = min(first_time, _HORIZON / slowest)  # no later crossing matters
+        while lo < end:  # Newton march to x_j = +-1; a convex stretch overshoots, so the
+            t = min(lo + stride, end)  # march always tests the end before giving up
             f, slope = combination_at(
                 t, shift, slots, weight_q, weight_p, n_terms, q, p, w_sq, s_sq, gamma
             )
@@ -410,6 +411,8 @@ def _first_join(
                 first_block = j
                 break
             lo, f_lo = t, f
+            if lo >= end:
+                break
             if f * slope < 0.0:
                 stride = -f / slope
                 if stride <= 4.0 * np.finfo(np.float64).eps * t:  # converged from one side
