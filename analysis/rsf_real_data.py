@@ -41,6 +41,10 @@ data_dir = Path(
     )
 )
 files = sorted(data_dir.glob("*.csv"))
+if not files:
+    raise SystemExit(
+        f"no laboratory velocity steps (*.csv) in {data_dir}; set NANOBLOCK_SHARED_DATA"
+    )
 if scale < 1:
     files = files[:2]
 laws = ("aging", "slip")

@@ -21,7 +21,12 @@ NEEDS_SHARED = "NANOBLOCK_SHARED_DATA"
 def test_notebook_runs(notebook: Path, tmp_path) -> None:
     if NEEDS_SHARED in notebook.read_text() and not SHARED_DATA.is_dir():
         pytest.skip(f"{notebook.name} reads the laboratory data in {SHARED_DATA}, absent here")
-    env = {**os.environ, "NANOBLOCK_NOTEBOOK_SCALE": "0.05", "MPLBACKEND": "Agg"}
+    env = {
+        **os.environ,
+        "NANOBLOCK_NOTEBOOK_SCALE": "0.05",
+        "MPLBACKEND": "Agg",
+        NEEDS_SHARED: str(SHARED_DATA),  # not where an installed nanoblock happens to live
+    }
     subprocess.run(
         [sys.executable, str(notebook)],
         cwd=tmp_path,

@@ -12,9 +12,6 @@ FORCE_BALANCE_RTOL = 1e-9
 MEAN_AGE_RTOL = 2e-2
 """Issue 2: steady mean contact age vs D0 / V."""
 
-LANDING_RTOL = 1e-4
-"""RK4 cluster integration of an isolated block vs the closed-form damped landing."""
-
 MODAL_RTOL = 1e-12
 """Closed-form run spectra and modal propagation (001/Eq. 21) vs eigh and DOP853 at rtol 1e-12."""
 
