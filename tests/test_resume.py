@@ -15,7 +15,7 @@ import xarray as xr
 
 from nanoblock.engine import simulate
 from nanoblock.params import load_scenario
-from nanoblock.store import SAMPLES, SNAPSHOTS
+from nanoblock.store import SAMPLES, SNAPSHOTS, RunStore
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -87,9 +87,12 @@ def test_sigkilled_run_resumes_to_the_uninterrupted_trajectory(tmp_path: Path) -
     os.kill(first.pid, signal.SIGKILL)
     first.communicate()
     assert first.returncode == -signal.SIGKILL
-    killed = xr.open_zarr(out, consolidated=False)
-    assert not killed.attrs["complete"]
-    checkpoint = killed.attrs["checkpoint"]["samples"]
+    # The kill may land inside an append, leaving some arrays one chunk longer than others
+    # (xarray then refuses to open the store); the checkpoint in the root attrs, written
+    # last, is what a resume truncates back to.
+    killed = RunStore(out).attrs
+    assert not killed["complete"]
+    checkpoint = killed["checkpoint"]["samples"]
     assert 0 < checkpoint < 281
 
     second = launch(scenario, out)
