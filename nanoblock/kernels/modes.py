@@ -142,15 +142,22 @@ def damped_basis(s_sq: float, t: float) -> tuple[float, float]:
 
 
 @kernel(inline=True)
+def _undecayed(
+    q0: float, p0: float, w_sq: float, s_sq: float, gamma: float, t: float
+) -> tuple[float, float]:
+    """The bracketed factors of the module doc's q(t) and p(t), without e^{-gamma t/2}."""
+    c, s = damped_basis(s_sq, t)
+    return q0 * c + (p0 + 0.5 * gamma * q0) * s, p0 * c - (w_sq * q0 + 0.5 * gamma * p0) * s
+
+
+@kernel(inline=True)
 def propagate(
     q0: float, p0: float, w_sq: float, s_sq: float, gamma: float, t: float
 ) -> tuple[float, float]:
     """Modal deviation and velocity a time t [s] after (q0, p0) (closed form, module doc)."""
-    c, s = damped_basis(s_sq, t)
+    q, p = _undecayed(q0, p0, w_sq, s_sq, gamma, t)
     decay = np.exp(-0.5 * gamma * t)
-    q = decay * (q0 * c + (p0 + 0.5 * gamma * q0) * s)
-    p = decay * (p0 * c - (w_sq * q0 + 0.5 * gamma * p0) * s)
-    return q, p
+    return decay * q, decay * p
 
 
 @kernel(inline=True)
@@ -188,9 +195,7 @@ def combination_at(
     value, slope = 0.0, 0.0
     for j in range(n_terms):
         m = slots[j]
-        c, s = damped_basis(s_sq[m], t)
-        q = q0[m] * c + (p0[m] + 0.5 * gamma * q0[m]) * s
-        p = p0[m] * c - (w_sq[m] * q0[m] + 0.5 * gamma * p0[m]) * s
+        q, p = _undecayed(q0[m], p0[m], w_sq[m], s_sq[m], gamma, t)
         value += weight_q[j] * q + weight_p[j] * p
         slope += weight_q[j] * p - weight_p[j] * (gamma * p + w_sq[m] * q)
     decay = np.exp(-0.5 * gamma * t)
