@@ -176,10 +176,12 @@ def test_hidden_effects_are_found() -> None:
     assert quiet >= HIDDEN_MIN_RATE * len(without), summary
 
 
-@pytest.mark.battery
+@pytest.mark.slow
 def test_silicon_fig3_with_load_dependent_memory_length(tmp_path: Path) -> None:
     """000/Fig. 3 ramps at six normal forces with D_c ~ N^0.7: diagnosed as
-    load_dependent_dc, the exponent recovered, and a gain reported."""
+    load_dependent_dc, the exponent recovered, and a gain reported (measured, seed 3:
+    exponent 0.7027 +- 0.0035, held-out error ratio 9.7, 98 % of the residual variance
+    explained, delta BIC 3706; 31 s)."""
     rng = np.random.default_rng(3)
     forces = (100.0, 200.0, 300.0, 400.0, 500.0, 600.0)
     data = clamped_case(
