@@ -15,7 +15,7 @@ import numpy as np
 
 from nanoblock.kernels._jit import kernel
 from nanoblock.kernels.hazard import (
-    hazard_between,
+    ramp_hazard,
     rate,
     signed_cumulative,
     signed_inverse,
@@ -47,16 +47,17 @@ def next_depinning(
     x_end = x0 + x_rate * horizon
     crosses = direction * x_end >= 1.0
     x_limit = direction if crosses else x_end
+    start = 0.0  # R(x0), needed on long ramps only
     if abs(x_limit - x0) < _SHORT_RAMP:
         available = rate(x0, table) * abs(x_limit - x0) / abs(x_rate)
     else:
-        available = hazard_between(x0, x_limit, x_rate, horizon, table)
+        start = signed_cumulative(x0, table)
+        available = ramp_hazard(x0, start, x_limit, x_rate, horizon, table)
     if available >= need:
         if abs(x_limit - x0) < _SHORT_RAMP:
             x_fire = x0 + direction * need * abs(x_rate) / rate(x0, table)
         else:
-            level = signed_cumulative(x0, table) + direction * need * abs(x_rate)
-            x_fire = signed_inverse(level, table)
+            x_fire = signed_inverse(start + direction * need * abs(x_rate), table)
         t_fire = (x_fire - x0) / x_rate
         t_fire = min(max(t_fire, 0.0), horizon)
         return t_fire, x_fire, 0.0

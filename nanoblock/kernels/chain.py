@@ -66,7 +66,7 @@ def _neighbours(i: int, n: int) -> int:
     return (1 if i > 0 else 0) + (1 if i < n - 1 else 0)
 
 
-@kernel
+@kernel(nrt=False)
 def reduced_stress(z: np.ndarray, i: int, kappa: float) -> float:
     """xi_i = z_i + kappa (n_i z_i - z_{i-1} - z_{i+1}), free ends (reduced stress at t=0)."""
     n = z.shape[0]
@@ -79,14 +79,14 @@ def reduced_stress(z: np.ndarray, i: int, kappa: float) -> float:
 
 
 # ---------------------------------------------------------------- indexed min-heap on keys
-@kernel
+@kernel(nrt=False)
 def _swap(heap: np.ndarray, where: np.ndarray, a: int, b: int) -> None:
     heap[a], heap[b] = heap[b], heap[a]
     where[heap[a]] = a
     where[heap[b]] = b
 
 
-@kernel
+@kernel(nrt=False)
 def _sift(heap: np.ndarray, where: np.ndarray, keys: np.ndarray, slot: int) -> None:
     n = heap.shape[0]
     while slot > 0 and keys[heap[slot]] < keys[heap[(slot - 1) // 2]]:
@@ -113,7 +113,7 @@ def _heapify(heap: np.ndarray, where: np.ndarray, keys: np.ndarray) -> None:
 
 
 # ---------------------------------------------------------------- the contact's clock
-@kernel
+@kernel(nrt=False)
 def _settle(i, t, xi, h, t_ref, x_rate, omega_a, table) -> None:
     """Accumulate block i's hazard from its reference time up to t (stress unchanged)."""
     if t > t_ref[i]:
@@ -143,7 +143,7 @@ def _record_depinning(i, on_depin, moved, n_moved) -> int:
     return n_moved
 
 
-@kernel
+@kernel(nrt=False)
 def reset_cascade(z, offset, first, kappa, on_depin, moved, queue, queued) -> tuple[int, int]:
     """Reset rule: each depinned block jumps to zero force with its neighbours fixed.
 
@@ -421,6 +421,154 @@ def _first_join(
     return first_time, first_block
 
 
+@kernel(nrt=False)
+def _segment(
+    z, offset, kappa, omega1_sq, gamma, on_depin, moved, modal, blocks, vectors, n_runs, longest,
+    n_moving, n_stopped, events, n_moved, substeps,
+) -> tuple[int, int, int, int, int, bool]:  # fmt: skip
+    """One segment of :func:`integrate_cluster`, between two changes of the moving set:
+    modes of the ``n_runs`` runs already collected in ``blocks`` (the longest has
+    ``longest`` blocks), joins of watched or stopped blocks
+    over threshold, then grid steps to the next event, which is applied. Returns the
+    updated (n_moving, n_stopped, events, n_moved, substeps, landed); ``landed``: the
+    moving blocks were put at their equilibrium and the avalanche is over. Compiled without
+    reference counting (the caller owns every array; nothing here allocates): counting the
+    array views of this loop cost a fifth of the chain's run time."""
+    n = z.shape[0]
+    omega_1 = np.sqrt(omega1_sq)
+    w_sq, s_sq, q, p, q_old, p_old = (
+        modal[_W_SQ],
+        modal[_S_SQ],
+        modal[_Q],
+        modal[_P],
+        modal[_Q_OLD],
+        modal[_P_OLD],
+    )
+    dev, vel, heading, last_f = modal[_DEV], modal[_VEL], modal[_HEADING], modal[_LAST_F]
+    moving, run_start, run_length, run_first = blocks[0], blocks[1], blocks[2], blocks[3]
+    run_size, watch, slots, stopped = blocks[4], blocks[5], blocks[6], blocks[7]
+    in_motion = blocks[8]
+    step = modal[_STEP : _STEP + 4]
+    w_max = _build_modes(
+        z, offset, kappa, omega1_sq, gamma, run_start, run_length, n_runs, vectors, modal
+    )
+    n_watch = _watch_list(z, offset, kappa, in_motion, run_start, run_length, n_runs, modal, watch)
+    n_before = n_moving
+    for m in range(n_watch + n_stopped):
+        j = watch[m] if m < n_watch else stopped[m - n_watch]
+        if not in_motion[j] and abs(reduced_stress(z, j, kappa) + offset) >= 1.0:
+            n_moving = _join(j, z, offset, kappa, moving, n_moving, in_motion, modal)
+            n_moved = _record_depinning(j, on_depin, moved, n_moved)
+            events += 1
+    n_stopped = 0
+    if n_moving > n_before or n_moving == 0:
+        return n_moving, n_stopped, events, n_moved, substeps, False
+    dt = _GRID_PHASE / max(w_max, gamma)
+    for m in range(n_moving):
+        k = moving[m]
+        step[0, k], step[1, k], step[2, k], step[3, k] = step_matrix(w_sq[k], s_sq[k], gamma, dt)
+    # ---- grid steps until an event
+    next_proof = substeps + (1 if longest == 1 else _PROOF_EVERY)  # joined from rest
+    while substeps < _MAX_SUBSTEPS:
+        substeps += 1
+        exact_join = False
+        if substeps >= next_proof:
+            wait = _time_to_steady(run_start, run_length, n_runs, vectors, modal, gamma)
+            next_proof = (
+                substeps + _PROOF_EVERY + int(min(_PROOF_PATIENCE * wait / dt, _MAX_SUBSTEPS))
+            )
+            if wait == 0.0:
+                t_event, event_block = _first_join(
+                    watch, n_watch, in_motion, run_first, run_size, vectors, slots, modal,
+                    gamma, kappa, dt,
+                )  # fmt: skip
+                if event_block == -1:  # nothing will ever happen: land at equilibrium
+                    for m in range(n_moving):
+                        z[moving[m]] = modal[_Z_EQ, moving[m]]
+                    return n_moving, n_stopped, events, n_moved, substeps, True
+                exact_join = event_block >= 0
+        if exact_join:  # straight to the join, from the present state
+            event_joins = True
+            for m in range(n_moving):
+                q_old[moving[m]], p_old[moving[m]] = q[moving[m]], p[moving[m]]
+        else:  # one grid step; events located within it
+            for m in range(n_moving):
+                k = moving[m]
+                q_old[k], p_old[k] = q[k], p[k]
+                q[k] = step[0, k] * q_old[k] + step[1, k] * p_old[k]
+                p[k] = step[2, k] * q_old[k] + step[3, k] * p_old[k]
+            _block_motion(run_start, run_length, n_runs, vectors, q, p, modal)
+            t_event, event_block, event_joins = np.inf, -1, False
+            for m in range(n_moving + n_watch):
+                j = moving[m] if m < n_moving else watch[m - n_moving]
+                if in_motion[j]:  # a turn: heading * v from > 0 to <= 0
+                    f_old, f_new, constant = last_f[j], heading[j] * vel[j], 0.0
+                    crossed = f_old > 0.0 and f_new <= 0.0
+                else:  # a join: |x| reaches 1
+                    x = modal[_X_EQ, j]
+                    for i in (j - 1, j + 1):
+                        if 0 <= i < n and in_motion[i]:
+                            x -= kappa * dev[i]
+                    crossed = abs(x) >= 1.0
+                    threshold = 1.0 if x > 0.0 else -1.0
+                    f_old, f_new = modal[_LAST_X, j] - threshold, x - threshold
+                    constant = modal[_X_EQ, j] - threshold
+                    modal[_LAST_X, j] = x
+                if crossed:
+                    n_terms = _event_weights(
+                        j, kappa, in_motion, run_first, run_size, vectors, slots, modal
+                    )
+                    t = combination_root(
+                        0.0, dt, f_old, f_new, constant, slots, modal[_WEIGHT_Q],
+                        modal[_WEIGHT_P], n_terms, q_old, p_old, w_sq, s_sq, gamma,
+                    )  # fmt: skip
+                    if t < t_event:
+                        t_event, event_block, event_joins = t, j, not in_motion[j]
+            if event_block < 0:
+                for m in range(n_moving):  # fallback: blocks at rest at equilibrium stop
+                    i = moving[m]
+                    if abs(vel[i]) < _SETTLED * omega_1:
+                        x = 0.0  # x = A (z - z*) = U diag(a) q
+                        for k in range(run_size[i]):
+                            slot = run_first[i] + k
+                            x += vectors[i, k] * w_sq[slot] / omega1_sq * q[slot]
+                        if abs(x) < _SETTLED:
+                            stopped[n_stopped] = i
+                            n_stopped += 1
+                if n_stopped == 0:
+                    for m in range(n_moving):
+                        last_f[moving[m]] = heading[moving[m]] * vel[moving[m]]
+                    continue
+        # ---- the event: every mode to t_event; blocks that turned stop, one joins
+        if event_block >= 0:
+            for m in range(n_moving):
+                k = moving[m]
+                q[k], p[k] = propagate(q_old[k], p_old[k], w_sq[k], s_sq[k], gamma, t_event)
+            _block_motion(run_start, run_length, n_runs, vectors, q, p, modal)
+        for m in range(n_moving):
+            i = moving[m]
+            z[i] = modal[_Z_EQ, i] + dev[i]
+            if i == event_block or (last_f[i] > 0.0 and heading[i] * vel[i] <= 0.0):
+                stopped[n_stopped] = i
+                n_stopped += 1
+            last_f[i] = heading[i] * vel[i]
+        for m in range(n_stopped):
+            in_motion[stopped[m]] = 0
+            vel[stopped[m]] = 0.0
+        n_kept = 0
+        for m in range(n_moving):
+            if in_motion[moving[m]]:
+                moving[n_kept] = moving[m]
+                n_kept += 1
+        n_moving = n_kept
+        if event_joins:
+            n_moving = _join(event_block, z, offset, kappa, moving, n_moving, in_motion, modal)
+            n_moved = _record_depinning(event_block, on_depin, moved, n_moved)
+            events += 1
+        break
+    return n_moving, n_stopped, events, n_moved, substeps, False
+
+
 @kernel
 def integrate_cluster(
     z: np.ndarray,
@@ -449,164 +597,31 @@ def integrate_cluster(
     listed in ``moved``).
     """
     n = z.shape[0]
-    gamma = damping
-    omega_1 = np.sqrt(omega1_sq)
     modal = np.empty((_MODAL_ROWS, n))
-    w_sq, s_sq, q, p, q_old, p_old = (
-        modal[_W_SQ],
-        modal[_S_SQ],
-        modal[_Q],
-        modal[_P],
-        modal[_Q_OLD],
-        modal[_P_OLD],
-    )
-    dev, vel, heading, last_f = modal[_DEV], modal[_VEL], modal[_HEADING], modal[_LAST_F]
     blocks = np.empty((9, n), dtype=np.int64)
     moving, run_start, run_length, run_first = blocks[0], blocks[1], blocks[2], blocks[3]
-    run_size, watch, slots, stopped = blocks[4], blocks[5], blocks[6], blocks[7]
-    in_motion = blocks[8]
+    run_size, in_motion = blocks[4], blocks[8]
     in_motion[:] = 0
     vectors = np.empty((n, min(n, 8)))
-    step = modal[_STEP : _STEP + 4]
     n_moving = _join(first, z, offset, kappa, moving, 0, in_motion, modal)
     n_moved = _record_depinning(first, on_depin, moved, 0)
-    events, n_stopped, substeps = 1, 0, 0
-    while (n_moving > 0 or n_stopped > 0) and substeps < _MAX_SUBSTEPS:
-        # ---- a new segment: runs, modes, watched neighbours; those over threshold join
+    events, n_stopped, substeps, landed = 1, 0, 0, False
+    while (n_moving > 0 or n_stopped > 0) and substeps < _MAX_SUBSTEPS and not landed:
         n_runs = _collect_runs(moving, n_moving, run_start, run_length, run_first, run_size)
         longest = 0
         for r in range(n_runs):
             longest = max(longest, run_length[r])
         if longest > vectors.shape[1]:
             vectors = np.empty((n, min(n, 2 * longest)))
-        w_max = _build_modes(
-            z, offset, kappa, omega1_sq, gamma, run_start, run_length, n_runs, vectors, modal
-        )
-        n_watch = _watch_list(
-            z, offset, kappa, in_motion, run_start, run_length, n_runs, modal, watch
-        )
-        n_before = n_moving
-        for m in range(n_watch + n_stopped):
-            j = watch[m] if m < n_watch else stopped[m - n_watch]
-            if not in_motion[j] and abs(reduced_stress(z, j, kappa) + offset) >= 1.0:
-                n_moving = _join(j, z, offset, kappa, moving, n_moving, in_motion, modal)
-                n_moved = _record_depinning(j, on_depin, moved, n_moved)
-                events += 1
-        n_stopped = 0
-        if n_moving > n_before:
-            continue
-        if n_moving == 0:
-            break
-        dt = _GRID_PHASE / max(w_max, gamma)
-        for m in range(n_moving):
-            k = moving[m]
-            step[0, k], step[1, k], step[2, k], step[3, k] = step_matrix(
-                w_sq[k], s_sq[k], gamma, dt
-            )
-        # ---- grid steps until an event
-        next_proof = substeps + (1 if longest == 1 else _PROOF_EVERY)  # joined from rest
-        while substeps < _MAX_SUBSTEPS:
-            substeps += 1
-            exact_join = False
-            if substeps >= next_proof:
-                wait = _time_to_steady(run_start, run_length, n_runs, vectors, modal, gamma)
-                next_proof = (
-                    substeps + _PROOF_EVERY + int(min(_PROOF_PATIENCE * wait / dt, _MAX_SUBSTEPS))
-                )
-                if wait == 0.0:
-                    t_event, event_block = _first_join(
-                        watch, n_watch, in_motion, run_first, run_size, vectors, slots, modal,
-                        gamma, kappa, dt,
-                    )  # fmt: skip
-                    if event_block == -1:  # nothing will ever happen: land at equilibrium
-                        for m in range(n_moving):
-                            z[moving[m]] = modal[_Z_EQ, moving[m]]
-                        return events, n_moved
-                    exact_join = event_block >= 0
-            if exact_join:  # straight to the join, from the present state
-                event_joins = True
-                for m in range(n_moving):
-                    q_old[moving[m]], p_old[moving[m]] = q[moving[m]], p[moving[m]]
-            else:  # one grid step; events located within it
-                for m in range(n_moving):
-                    k = moving[m]
-                    q_old[k], p_old[k] = q[k], p[k]
-                    q[k] = step[0, k] * q_old[k] + step[1, k] * p_old[k]
-                    p[k] = step[2, k] * q_old[k] + step[3, k] * p_old[k]
-                _block_motion(run_start, run_length, n_runs, vectors, q, p, modal)
-                t_event, event_block, event_joins = np.inf, -1, False
-                for m in range(n_moving + n_watch):
-                    j = moving[m] if m < n_moving else watch[m - n_moving]
-                    if in_motion[j]:  # a turn: heading * v from > 0 to <= 0
-                        f_old, f_new, constant = last_f[j], heading[j] * vel[j], 0.0
-                        crossed = f_old > 0.0 and f_new <= 0.0
-                    else:  # a join: |x| reaches 1
-                        x = modal[_X_EQ, j]
-                        for i in (j - 1, j + 1):
-                            if 0 <= i < n and in_motion[i]:
-                                x -= kappa * dev[i]
-                        crossed = abs(x) >= 1.0
-                        threshold = 1.0 if x > 0.0 else -1.0
-                        f_old, f_new = modal[_LAST_X, j] - threshold, x - threshold
-                        constant = modal[_X_EQ, j] - threshold
-                        modal[_LAST_X, j] = x
-                    if crossed:
-                        n_terms = _event_weights(
-                            j, kappa, in_motion, run_first, run_size, vectors, slots, modal
-                        )
-                        t = combination_root(
-                            0.0, dt, f_old, f_new, constant, slots, modal[_WEIGHT_Q],
-                            modal[_WEIGHT_P], n_terms, q_old, p_old, w_sq, s_sq, gamma,
-                        )  # fmt: skip
-                        if t < t_event:
-                            t_event, event_block, event_joins = t, j, not in_motion[j]
-                if event_block < 0:
-                    for m in range(n_moving):  # fallback: blocks at rest at equilibrium stop
-                        i = moving[m]
-                        if abs(vel[i]) < _SETTLED * omega_1:
-                            x = 0.0  # x = A (z - z*) = U diag(a) q
-                            for k in range(run_size[i]):
-                                slot = run_first[i] + k
-                                x += vectors[i, k] * w_sq[slot] / omega1_sq * q[slot]
-                            if abs(x) < _SETTLED:
-                                stopped[n_stopped] = i
-                                n_stopped += 1
-                    if n_stopped == 0:
-                        for m in range(n_moving):
-                            last_f[moving[m]] = heading[moving[m]] * vel[moving[m]]
-                        continue
-            # ---- the event: every mode to t_event; blocks that turned stop, one joins
-            if event_block >= 0:
-                for m in range(n_moving):
-                    k = moving[m]
-                    q[k], p[k] = propagate(q_old[k], p_old[k], w_sq[k], s_sq[k], gamma, t_event)
-                _block_motion(run_start, run_length, n_runs, vectors, q, p, modal)
-            for m in range(n_moving):
-                i = moving[m]
-                z[i] = modal[_Z_EQ, i] + dev[i]
-                if i == event_block or (last_f[i] > 0.0 and heading[i] * vel[i] <= 0.0):
-                    stopped[n_stopped] = i
-                    n_stopped += 1
-                last_f[i] = heading[i] * vel[i]
-            for m in range(n_stopped):
-                in_motion[stopped[m]] = 0
-                vel[stopped[m]] = 0.0
-            n_kept = 0
-            for m in range(n_moving):
-                if in_motion[moving[m]]:
-                    moving[n_kept] = moving[m]
-                    n_kept += 1
-            n_moving = n_kept
-            if event_joins:
-                n_moving = _join(event_block, z, offset, kappa, moving, n_moving, in_motion, modal)
-                n_moved = _record_depinning(event_block, on_depin, moved, n_moved)
-                events += 1
-            break
+        n_moving, n_stopped, events, n_moved, substeps, landed = _segment(
+            z, offset, kappa, omega1_sq, damping, on_depin, moved, modal, blocks, vectors,
+            n_runs, longest, n_moving, n_stopped, events, n_moved, substeps,
+        )  # fmt: skip
     return events, n_moved
 
 
 # ---------------------------------------------------------------- one contact, one segment
-@kernel
+@kernel(nrt=False)
 def _fire_time(i, xi, h, t_ref, x_rate, duration, omega_a, table) -> float:
     t, _, _ = next_depinning(
         xi[i] + x_rate * t_ref[i], h[i], x_rate, duration - t_ref[i], omega_a, table
@@ -614,7 +629,7 @@ def _fire_time(i, xi, h, t_ref, x_rate, duration, omega_a, table) -> float:
     return t_ref[i] + t
 
 
-@kernel
+@kernel(nrt=False)
 def _avalanche(j, t, x_rate, z, xi, h, t_ref, work, params, table, stream) -> tuple[int, int]:
     """Depin block j at time t and resolve the avalanche; bring every block whose stress
     history changed up to date: hazard settled with its old stress, a fresh Exp(1)

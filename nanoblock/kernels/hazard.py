@@ -25,7 +25,7 @@ def _side(x: float, table: np.ndarray) -> int:
     return int(table[_NEGATIVE]) if x < 0.0 else 0
 
 
-@kernel
+@kernel(nrt=False)
 def _hermite(x: float, table: np.ndarray, start: int) -> tuple[float, float]:
     """g(x) = ln(R(x) / x) and g'(x) for x in [0, 1] by cubic Hermite interpolation, from
     the table that begins at ``start``."""
@@ -162,10 +162,20 @@ def hazard_between(
     """Reduced hazard int r(x(t)) dt [s] along a linear ramp; times omega_a it is the hazard.
 
     The ramp goes from ``x0`` to ``x1`` in ``duration`` seconds at rate ``x_rate`` = dx/dt.
+    """
+    return ramp_hazard(x0, signed_cumulative(x0, table), x1, x_rate, duration, table)
+
+
+@kernel(inline=True)
+def ramp_hazard(
+    x0: float, start: float, x1: float, x_rate: float, duration: float, table: np.ndarray
+) -> float:
+    """:func:`hazard_between` with ``start`` = R(x0) (:func:`signed_cumulative`) known.
+
     A ramp too short for a difference of cumulatives to be accurate uses the midpoint rule
     (relative error below 1e-10 for |x1 - x0| < 1e-6), unless it crosses zero stress where
     the rate jumps (back jumps); there the cumulatives add without cancellation.
     """
     if abs(x1 - x0) < 1e-6 and (x0 * x1 >= 0.0 or table[_NEGATIVE] == 0.0):
         return rate(0.5 * (x0 + x1), table) * duration
-    return abs(signed_cumulative(x1, table) - signed_cumulative(x0, table)) / abs(x_rate)
+    return abs(signed_cumulative(x1, table) - start) / abs(x_rate)
