@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from nanoblock.kernels.chain import integrate_cluster, reduced_stress
+from nanoblock.kernels.chain import cluster_workspace, integrate_cluster, reduced_stress
 from nanoblock.kernels.modes import (
     combination_root,
     propagate,
@@ -271,7 +271,7 @@ def test_avalanches_match_the_naive_event_integrator(low: float, chains: int, se
         on_depin = np.zeros(z.size, dtype=np.int64)
         moved = np.zeros(z.size, dtype=np.int64)
         events, n_moved = integrate_cluster(
-            z, offset, first, kappa, omega1_sq, gamma, on_depin, moved
+            z, offset, first, kappa, omega1_sq, gamma, on_depin, moved, *cluster_workspace(z.size)
         )
         assert events == depinnings == on_depin.sum()
         assert list(moved[:n_moved]) == order  # joins in time order

@@ -11,7 +11,7 @@ from scipy.special import dawsn
 from nanoblock.barriers import barrier_law
 from nanoblock.kernels import hazard
 from nanoblock.kernels.blocks import advance_free_blocks, landing_overshoot, next_depinning
-from nanoblock.kernels.chain import integrate_cluster, reduced_stress
+from nanoblock.kernels.chain import cluster_workspace, integrate_cluster, reduced_stress
 from nanoblock.kernels.rng import next_uint64, seed_streams, standard_exponential
 from nanoblock.tables import hazard_table, lattice_hazard_table
 from tests.tolerances import HAZARD_RTOL, LANDING_EXACT_RTOL, SIGNIFICANCE
@@ -146,7 +146,9 @@ def test_cluster_integrator_lands_isolated_block_like_the_closed_form(damping_ra
     x0 = reduced_stress(z, 2, kappa)
     on_depin = np.zeros(5, dtype=np.int64)
     moved = np.zeros(5, dtype=np.int64)
-    events, n_moved = integrate_cluster(z, 0.0, 2, kappa, omega1_sq, damping, on_depin, moved)
+    events, n_moved = integrate_cluster(
+        z, 0.0, 2, kappa, omega1_sq, damping, on_depin, moved, *cluster_workspace(z.size)
+    )
     assert (events, n_moved) == (1, 1)
     landed = reduced_stress(z, 2, kappa)
     expected = damped_landing(x0, omega1_sq * (1 + 2 * kappa), damping)
@@ -160,7 +162,9 @@ def test_cluster_avalanche_pushes_a_neighbour_over_threshold() -> None:
     x = [reduced_stress(z, i, kappa) for i in range(4)]
     on_depin = np.zeros(4, dtype=np.int64)
     moved = np.zeros(4, dtype=np.int64)
-    events, n_moved = integrate_cluster(z, 0.0, 1, kappa, omega1_sq, damping, on_depin, moved)
+    events, n_moved = integrate_cluster(
+        z, 0.0, 1, kappa, omega1_sq, damping, on_depin, moved, *cluster_workspace(z.size)
+    )
     assert events >= 2 and n_moved >= 2
     assert max(abs(reduced_stress(z, i, kappa)) for i in range(4)) < 1.0
     # the chain's total force (sum of plate-spring stretches) only falls in an avalanche

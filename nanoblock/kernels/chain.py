@@ -59,6 +59,10 @@ _W_SQ, _S_SQ, _Q, _P, _Q_OLD, _P_OLD, _BOUND, _WEIGHT_Q, _WEIGHT_P = range(9)
 _Z_EQ, _DEV, _VEL, _HEADING, _LAST_F, _X_EQ, _LAST_X = range(9, 16)
 _STEP = 16  # four rows: the one-step map of each mode slot
 _MODAL_ROWS = 20
+# rows of the integer work array: moving blocks, runs (start, length), each block's run
+# (first block, size), watched blocks, modal slots of an event function, stopped blocks
+_IN_MOTION = 8  # last row: 1 while a block moves
+_BLOCK_ROWS = 9
 
 
 @kernel
@@ -447,7 +451,7 @@ def _segment(
     dev, vel, heading, last_f = modal[_DEV], modal[_VEL], modal[_HEADING], modal[_LAST_F]
     moving, run_start, run_length, run_first = blocks[0], blocks[1], blocks[2], blocks[3]
     run_size, watch, slots, stopped = blocks[4], blocks[5], blocks[6], blocks[7]
-    in_motion = blocks[8]
+    in_motion = blocks[_IN_MOTION]
     step = modal[_STEP : _STEP + 4]
     w_max = _build_modes(
         z, offset, kappa, omega1_sq, gamma, run_start, run_length, n_runs, vectors, modal
@@ -570,6 +574,34 @@ def _segment(
 
 
 @kernel
+def cluster_workspace(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Work arrays (modal, blocks, vectors) of :func:`integrate_cluster` for ``n`` blocks."""
+    return (
+        np.empty((_MODAL_ROWS, n)),
+        np.empty((_BLOCK_ROWS, n), dtype=np.int64),
+        np.empty((n, min(n, 8))),
+    )
+
+
+@kernel(nrt=False)
+def _start_cluster(first, z, offset, kappa, on_depin, moved, modal, blocks) -> tuple[int, int]:
+    """Block ``first`` starts moving, no other does; returns (n_moving, n_moved)."""
+    blocks[_IN_MOTION, :] = 0
+    n_moving = _join(first, z, offset, kappa, blocks[0], 0, blocks[_IN_MOTION], modal)
+    return n_moving, _record_depinning(first, on_depin, moved, 0)
+
+
+@kernel(nrt=False)
+def _runs(blocks: np.ndarray, n_moving: int) -> tuple[int, int]:
+    """:func:`_collect_runs` on the work rows; returns (number of runs, longest run)."""
+    n_runs = _collect_runs(blocks[0], n_moving, blocks[1], blocks[2], blocks[3], blocks[4])
+    longest = 0
+    for r in range(n_runs):
+        longest = max(longest, blocks[2, r])
+    return n_runs, longest
+
+
+@kernel
 def integrate_cluster(
     z: np.ndarray,
     offset: float,
@@ -579,6 +611,9 @@ def integrate_cluster(
     damping: float,
     on_depin: np.ndarray,
     moved: np.ndarray,
+    modal: np.ndarray,
+    blocks: np.ndarray,
+    vectors: np.ndarray,
 ) -> tuple[int, int]:
     """Resolve the avalanche started by block ``first`` (slider frozen; 001/Eq. 21).
 
@@ -593,24 +628,15 @@ def integrate_cluster(
     grid, and if none will come the moving blocks land exactly at their equilibrium x = 0,
     which an overdamped run approaches without ever stopping (the RK4 integrator stopped
     them within 1e-9). Failing the proof, a block stops once |x| and |v| / omega_1 are
-    below 1e-9. ``z`` changes in place. Returns (depinnings, number of distinct blocks
-    listed in ``moved``).
+    below 1e-9. ``z`` changes in place; ``modal``, ``blocks`` and ``vectors`` are the work
+    arrays of :func:`cluster_workspace` (a longer run than ``vectors`` holds gets a larger
+    copy). Returns (depinnings, number of distinct blocks listed in ``moved``).
     """
     n = z.shape[0]
-    modal = np.empty((_MODAL_ROWS, n))
-    blocks = np.empty((9, n), dtype=np.int64)
-    moving, run_start, run_length, run_first = blocks[0], blocks[1], blocks[2], blocks[3]
-    run_size, in_motion = blocks[4], blocks[8]
-    in_motion[:] = 0
-    vectors = np.empty((n, min(n, 8)))
-    n_moving = _join(first, z, offset, kappa, moving, 0, in_motion, modal)
-    n_moved = _record_depinning(first, on_depin, moved, 0)
+    n_moving, n_moved = _start_cluster(first, z, offset, kappa, on_depin, moved, modal, blocks)
     events, n_stopped, substeps, landed = 1, 0, 0, False
     while (n_moving > 0 or n_stopped > 0) and substeps < _MAX_SUBSTEPS and not landed:
-        n_runs = _collect_runs(moving, n_moving, run_start, run_length, run_first, run_size)
-        longest = 0
-        for r in range(n_runs):
-            longest = max(longest, run_length[r])
+        n_runs, longest = _runs(blocks, n_moving)
         if longest > vectors.shape[1]:
             vectors = np.empty((n, min(n, 2 * longest)))
         n_moving, n_stopped, events, n_moved, substeps, landed = _segment(
@@ -630,7 +656,9 @@ def _fire_time(i, xi, h, t_ref, x_rate, duration, omega_a, table) -> float:
 
 
 @kernel(nrt=False)
-def _avalanche(j, t, x_rate, z, xi, h, t_ref, work, params, table, stream) -> tuple[int, int]:
+def _avalanche(
+    j, t, x_rate, z, xi, h, t_ref, work, cluster, params, table, stream
+) -> tuple[int, int]:
     """Depin block j at time t and resolve the avalanche; bring every block whose stress
     history changed up to date: hazard settled with its old stress, a fresh Exp(1)
     threshold for blocks that slipped, new xi. The changed blocks are listed in
@@ -655,9 +683,11 @@ def _avalanche(j, t, x_rate, z, xi, h, t_ref, work, params, table, stream) -> tu
             moved[0] = j
             events, n_moved = 1, 1
         else:
+            modal, blocks, vectors = cluster
             events, n_moved = integrate_cluster(
-                z, offset, j, kappa, params.omega1_sq, params.damping, on_depin, moved
-            )
+                z, offset, j, kappa, params.omega1_sq, params.damping, on_depin, moved, modal,
+                blocks, vectors,
+            )  # fmt: skip
     n_changed = 0
     for m in range(n_moved):
         for k in (moved[m] - 1, moved[m], moved[m] + 1):
@@ -704,6 +734,7 @@ def advance_chain(
     heap = np.empty(n, dtype=np.int64)
     where = np.empty(n, dtype=np.int64)
     work = np.zeros((5, n), dtype=np.int64)
+    cluster = cluster_workspace(n)
     for i in range(n):
         z[i] += jump
     for i in range(n):
@@ -711,7 +742,9 @@ def advance_chain(
     events = 0
     for i in range(n):  # blocks pushed over threshold by the jump slip at t = 0
         if abs(xi[i]) >= 1.0:
-            count, _ = _avalanche(i, 0.0, x_rate, z, xi, h, t_ref, work, params, table, stream)
+            count, _ = _avalanche(
+                i, 0.0, x_rate, z, xi, h, t_ref, work, cluster, params, table, stream
+            )
             events += count
     for i in range(n):
         fire[i] = _fire_time(i, xi, h, t_ref, x_rate, duration, params.omega_a, table)
@@ -719,7 +752,7 @@ def advance_chain(
     while fire[heap[0]] <= duration:
         j = heap[0]
         count, n_changed = _avalanche(
-            j, fire[j], x_rate, z, xi, h, t_ref, work, params, table, stream
+            j, fire[j], x_rate, z, xi, h, t_ref, work, cluster, params, table, stream
         )
         events += count
         for m in range(n_changed):

@@ -32,7 +32,7 @@ _SERIES = 1e-2
 _ROOT_ITERATIONS = 200
 
 
-@kernel
+@kernel(nrt=False)
 def run_spectrum(
     length: int,
     left_fixed: bool,
@@ -202,7 +202,7 @@ def combination_at(
     return constant + decay * value, decay * slope
 
 
-@kernel
+@kernel(nrt=False)
 def combination_root(
     lo: float,
     hi: float,
