@@ -66,7 +66,7 @@ def next_depinning(
     return np.inf, x_end, h - omega_a * available
 
 
-@kernel
+@kernel(nrt=False)
 def advance_free_blocks(
     y: np.ndarray,
     h: np.ndarray,

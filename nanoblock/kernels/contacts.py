@@ -31,7 +31,7 @@ def contact_area(age: float, params: np.ndarray) -> float:
     return params.contact_area * (1.0 + params.aging_m * np.log1p(age / params.aging_time))
 
 
-@kernel
+@kernel(nrt=False)
 def renew_contact(y_row, h_row, stream, params) -> float:
     """Replace a contact by a fresh, unstressed one; returns its slip lifetime [m]."""
     for i in range(y_row.shape[0]):
@@ -40,7 +40,7 @@ def renew_contact(y_row, h_row, stream, params) -> float:
     return params.memory_length * standard_exponential(stream)
 
 
-@kernel
+@kernel(nrt=False)
 def _advance_blocks(y_row, h_row, jump, x_rate, duration, params, table, stream) -> int:
     if params.kappa == 0.0 or y_row.shape[0] == 1:
         eta = params.eta_free if params.slip_chain == 1 else 0.0
@@ -67,7 +67,7 @@ def ageing_rate(velocity: float, params) -> float:
     return abs(velocity) / (abs(velocity) + params.state_cutoff)
 
 
-@kernel
+@kernel(nrt=False)
 def advance_contact(
     c,
     y,
