@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import dask.array
 import numpy as np
 import xarray as xr
 import zarr
@@ -183,8 +184,32 @@ class RunStore:
         return arrays, {k: v for k, v in pointer.items() if k != "slot"}
 
     def open(self) -> xr.Dataset:
-        """Open the stored run lazily."""
-        return xr.open_zarr(self.path, consolidated=False)
+        """Open the stored run lazily; an unfinished run as far as its last checkpoint.
+
+        A run killed inside an append can leave some arrays a chunk longer than others,
+        which xarray refuses to open; what a resume keeps is what this shows (the store is
+        not written to).
+        """
+        pointer = self.attrs.get("checkpoint")
+        if self.attrs.get("complete", True) or not pointer:
+            return xr.open_zarr(self.path, consolidated=False)
+        return self.open_to(int(pointer["samples"]), int(pointer.get("snapshots", 0)))
+
+    def open_to(self, n_samples: int, n_snapshots: int) -> xr.Dataset:
+        """The first ``n_samples`` samples and ``n_snapshots`` snapshots, read lazily
+        array by array and decoded as xarray does (zarr v3: no fill-value mask), whatever
+        lies beyond them."""
+        group = zarr.open_group(self.path, mode="r")
+        keep = {"time": n_samples, "snapshot_time": n_snapshots}
+        variables = {}
+        for name in group.array_keys():
+            array = group[name]
+            dims = tuple(array.metadata.dimension_names or ())
+            data = dask.array.from_zarr(array)
+            if dims and dims[0] in keep:
+                data = data[: keep[dims[0]]]
+            variables[name] = xr.Variable(dims, data, dict(array.attrs))
+        return xr.decode_cf(xr.Dataset(variables, attrs=dict(group.attrs)))
 
 
 def scenario_of(store: RunStore) -> dict[str, Any]:

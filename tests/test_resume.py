@@ -8,13 +8,15 @@ import signal
 import subprocess
 import sys
 import time
+import tomllib
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
+import zarr
 
 from nanoblock.engine import simulate
-from nanoblock.params import load_scenario
+from nanoblock.params import from_mapping, load_scenario
 from nanoblock.store import SAMPLES, SNAPSHOTS, RunStore
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -56,6 +58,13 @@ snapshot_every = 10
 one thread, 281 samples."""
 
 
+def variables_of(run: xr.Dataset) -> xr.Dataset:
+    """The run without its root attributes (progress and checkpoint differ by design)."""
+    bare = run.copy()
+    bare.attrs = {}
+    return bare
+
+
 def launch(scenario: Path, out: Path) -> subprocess.Popen:
     """``python -m nanoblock.cli run`` in a subprocess on one Numba thread (robust to a
     busy machine; the trajectory does not depend on it), checkpointing every 0.5 s."""
@@ -94,6 +103,8 @@ def test_sigkilled_run_resumes_to_the_uninterrupted_trajectory(tmp_path: Path) -
     assert not killed["complete"]
     checkpoint = killed["checkpoint"]["samples"]
     assert 0 < checkpoint < 281
+    seen = RunStore(out).open().load()  # what `nanoblock info` and `plot` read
+    assert seen.sizes["time"] == checkpoint
 
     second = launch(scenario, out)
     stdout, stderr = second.communicate(timeout=300)
@@ -102,9 +113,38 @@ def test_sigkilled_run_resumes_to_the_uninterrupted_trajectory(tmp_path: Path) -
 
     resumed = xr.open_zarr(out, consolidated=False)
     reference = simulate(load_scenario(scenario))
+    before = reference[list(SAMPLES)].isel(time=slice(0, checkpoint))
+    xr.testing.assert_identical(variables_of(seen[list(SAMPLES)]), variables_of(before))
     assert resumed.attrs["complete"] and resumed.sizes == reference.sizes
     for name in [*SAMPLES, *SNAPSHOTS, "time", "snapshot_time"]:
         np.testing.assert_array_equal(resumed[name].values, reference[name].values, name)
     progress = resumed.attrs["progress"]
     assert progress["fraction"] == 1.0 and progress["simulated_time"] == progress["end_time"]
     assert progress["events"] == int(reference.n_events[-1]) and progress["wall_seconds"] > 0
+
+
+def test_a_store_killed_inside_an_append_opens_as_far_as_its_checkpoint(tmp_path: Path) -> None:
+    """An append cut short leaves one array a chunk longer than the rest: xarray refuses
+    the store, RunStore.open shows the checkpointed samples and snapshots, identical to the
+    run read before the damage, and writes nothing."""
+    out = tmp_path / "cut.zarr"
+    scenario = from_mapping(tomllib.loads(SCENARIO.replace("= 1e-7 }", "= 1e-8 }")))
+    simulate(scenario, out)
+    store = RunStore(out)
+    intact = xr.open_zarr(out, consolidated=False).load()
+    group = zarr.open_group(out, mode="a")
+    n_samples = group["time"].shape[0]
+    group["friction_force"].resize((n_samples + 7,))  # the interrupted append
+    checkpoint = {**store.attrs["checkpoint"], "samples": n_samples - 3}
+    store.update_attrs(complete=False, checkpoint=checkpoint)
+    listing = sorted(str(p.relative_to(out)) for p in out.rglob("*"))
+    try:
+        xr.open_zarr(out, consolidated=False)
+    except ValueError as error:
+        assert "time" in str(error)
+    else:
+        raise AssertionError("xarray opened arrays of unequal length")
+    seen = store.open().load()
+    expected = intact.isel(time=slice(0, n_samples - 3))
+    xr.testing.assert_identical(variables_of(seen), variables_of(expected))
+    assert sorted(str(p.relative_to(out)) for p in out.rglob("*")) == listing
