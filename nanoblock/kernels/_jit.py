@@ -22,7 +22,8 @@ def kernel(
     ``nrt=False`` compiles without Numba's reference counting, for functions that allocate
     nothing and return no array: each array argument and view otherwise costs two atomic
     updates per call, a fifth of the chain kernel's run time before the event loop, the
-    reset cascade and the cluster segments were compiled this way.
+    reset cascade and the cluster segments were compiled this way. Numba refuses an
+    allocation in such a function at compile time.
     """
 
     def wrap(inner: F) -> F:
