@@ -4,6 +4,16 @@
 
 Run: ``python benchmarks/bench_steady_identification.py [SEEDS] [EFFECT ...]`` (10 seeds
 and every effect by default); prints one line per case and the counts per effect.
+
+Measured (e55ab27, 10 seeds): none 10, barrier_shape 10, joint_softening 10, back_jumps 9
+(seed 9: strength_heterogeneity, as before), velocity_saturation 8 (was 5; seed 0 reads
+none, its m = 5e-4 being below the noise; seed 7 unexplained), state_velocity_cutoff 7
+(unchanged: seed 0 a velocity_saturation false alarm below the noise, seeds 5 and 6
+strength_heterogeneity and velocity_saturation), strength_heterogeneity 3 (unchanged; the
+misses go to the two ageing extensions). On the noiseless seed-5 strength_heterogeneity
+table the fits leave chi^2 = 67 (base), 11 (saturation), 26 (cutoff) and 32 (spread) over
+36 rows at the generator's noise, where a spread fit with (mu_r, m) projected out reached
+4.9: the spread fit's optimizer, more than the data, loses these.
 """
 
 from __future__ import annotations
