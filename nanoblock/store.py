@@ -10,7 +10,7 @@ flushed sample and a complete checkpoint to resume from.
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -149,12 +149,8 @@ class RunStore:
 
     def truncate(self, n_samples: int, n_snapshots: int) -> None:
         """Drop samples (and snapshots) written after the last checkpoint."""
-        group = zarr.open_group(self.path, mode="a")
-        for name in group.array_keys():
-            array = group[name]
-            dims = array.metadata.dimension_names or ()
-            if dims and dims[0] in ("time", "snapshot_time"):
-                keep = n_samples if dims[0] == "time" else n_snapshots
+        for array, keep in _appended(zarr.open_group(self.path, mode="a"), n_samples, n_snapshots):
+            if keep is not None:
                 array.resize((keep, *array.shape[1:]))
 
     def write_checkpoint(
@@ -190,8 +186,9 @@ class RunStore:
         which xarray refuses to open; what a resume keeps is what this shows (the store is
         not written to).
         """
-        pointer = self.attrs.get("checkpoint")
-        if self.attrs.get("complete", True) or not pointer:
+        attrs = self.attrs
+        pointer = attrs.get("checkpoint")
+        if attrs.get("complete", True) or not pointer:
             return xr.open_zarr(self.path, consolidated=False)
         return self.open_to(int(pointer["samples"]), int(pointer.get("snapshots", 0)))
 
@@ -200,16 +197,24 @@ class RunStore:
         array by array and decoded as xarray does (zarr v3: no fill-value mask), whatever
         lies beyond them."""
         group = zarr.open_group(self.path, mode="r")
-        keep = {"time": n_samples, "snapshot_time": n_snapshots}
         variables = {}
-        for name in group.array_keys():
-            array = group[name]
+        for array, keep in _appended(group, n_samples, n_snapshots):
+            data = dask.array.from_zarr(array)[:keep]
             dims = tuple(array.metadata.dimension_names or ())
-            data = dask.array.from_zarr(array)
-            if dims and dims[0] in keep:
-                data = data[: keep[dims[0]]]
-            variables[name] = xr.Variable(dims, data, dict(array.attrs))
+            variables[array.basename] = xr.Variable(dims, data, dict(array.attrs))
         return xr.decode_cf(xr.Dataset(variables, attrs=dict(group.attrs)))
+
+
+def _appended(
+    group: zarr.Group, n_samples: int, n_snapshots: int
+) -> Iterator[tuple[zarr.Array, int | None]]:
+    """Each root array with the length it keeps: ``n_samples`` along ``time``,
+    ``n_snapshots`` along ``snapshot_time``, None (all of it) for the rest."""
+    keep = {"time": n_samples, "snapshot_time": n_snapshots}
+    for name in group.array_keys():
+        array = group[name]
+        dims = array.metadata.dimension_names or ()
+        yield array, keep.get(dims[0]) if dims else None
 
 
 def scenario_of(store: RunStore) -> dict[str, Any]:

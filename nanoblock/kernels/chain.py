@@ -432,12 +432,12 @@ def _segment(
 ) -> tuple[int, int, int, int, int, bool]:  # fmt: skip
     """One segment of :func:`integrate_cluster`, between two changes of the moving set:
     modes of the ``n_runs`` runs already collected in ``blocks`` (the longest has
-    ``longest`` blocks), joins of watched or stopped blocks
-    over threshold, then grid steps to the next event, which is applied. Returns the
-    updated (n_moving, n_stopped, events, n_moved, substeps, landed); ``landed``: the
-    moving blocks were put at their equilibrium and the avalanche is over. Compiled without
-    reference counting (the caller owns every array; nothing here allocates): counting the
-    array views of this loop cost a fifth of the chain's run time."""
+    ``longest`` blocks), joins of watched or stopped blocks over threshold, then grid steps
+    to the next event, which is applied. Returns the updated (n_moving, n_stopped, events,
+    n_moved, substeps, landed); ``landed``: the moving blocks were put at their equilibrium
+    and the avalanche is over. Compiled without reference counting (the caller owns every
+    array; nothing here allocates): counting the array views of this loop cost a fifth of
+    the chain's run time."""
     n = z.shape[0]
     omega_1 = np.sqrt(omega1_sq)
     w_sq, s_sq, q, p, q_old, p_old = (
