@@ -39,6 +39,11 @@ TREND = "slip_trend"
 """Name of the linear trend of friction with load-point displacement [1/m]."""
 LOAD_EXPONENT = "dc_load_exponent"
 """Name of the exponent n of a load-dependent memory length D_c (W / W_ref)^n."""
+INITIAL_OFFSET = "initial_state_offset"
+"""Prefix of the fitted initial-state offsets ln(theta(0) / theta_ss), one per run
+(``initial_state_offset_0``, ...): a record that does not start in steady sliding."""
+MEMORY_LENGTHS = ("dc", "d0", "dc2")
+"""Parameters searched within 1e-6 to 1e3 of the data's slip scale."""
 
 _COARSE_RTOL = 1e-7
 _SINGULAR = 1e-9
@@ -47,6 +52,7 @@ _PENALTY = 1e3
 _START_GRID = {
     "dc": np.arange(-3.0, 3.5, 1.0),
     "d0": np.arange(-3.0, 3.5, 1.0),
+    "dc2": (0.0, 1.5, 3.0),
     "a": (-0.005, 0.0, 0.01),
     "theta_star": (-1.5, 0.0, 1.5),
     "v_theta": (-2.5, 0.0, 2.5),
@@ -292,7 +298,7 @@ def _search_bounds(problem: _Problem, x0: FloatArray) -> tuple[FloatArray, Float
     for i, name in enumerate(problem.free):
         if name in positive and not problem.log_scale[i]:
             lower[i] = 1e-12
-        if name in ("dc", "d0"):
+        if name in MEMORY_LENGTHS:
             lower[i], upper[i] = math.log(1e-6 * travel), math.log(1e3 * travel)
         elif name == STIFFNESS:
             lower[i], upper[i] = x0[i] - math.log(1e4), x0[i] + math.log(1e4)
@@ -303,6 +309,9 @@ def _initial_params(lw: Law, guess: Mapping[str, float], v0: float) -> dict[str,
     mu0, a, b, dc = guess["mu0"], guess["a"], guess["b"], guess["dc"]
     if lw.name in ("aging", "slip"):
         return {"mu0": mu0, "a": a, "b": b, "dc": dc, "v0": v0}
+    if lw.name in ("aging2", "slip2"):  # a second, longer memory carrying part of b
+        base = {"mu0": mu0, "a": a, "b": b, "dc": dc}
+        return {**base, "b2": 0.25 * abs(b), "dc2": 10.0 * dc, "v0": v0}
     if lw.name == "cutoff":
         return {"mu0": mu0, "a": a, "b": b, "dc": dc, "v_theta": v0, "v0": v0}
     if lw.name == "saturation":
@@ -409,7 +418,8 @@ class _Setup:
 
 def _free_names(lw: Law, free: Sequence[str] | None, default: Sequence[str]) -> list[str]:
     names = list(free if free is not None else default)
-    unknown = set(names) - set(lw.names) - {STIFFNESS, TREND, LOAD_EXPONENT}
+    unknown = {n for n in names if not n.startswith(INITIAL_OFFSET)}
+    unknown -= set(lw.names) | {STIFFNESS, TREND, LOAD_EXPONENT}
     if unknown:
         raise ValueError(f"cannot fit {sorted(unknown)}: law {lw.name!r} takes {list(lw.names)}")
     return names
@@ -429,6 +439,7 @@ def _problem(
         TREND: False,
         LOAD_EXPONENT: False,
     }
+    log_scale.update({name: False for name in free_names if name.startswith(INITIAL_OFFSET)})
     scale = float(np.sqrt(np.mean(np.concatenate(observed) ** 2))) or 1.0
     return _Problem(
         lw,
@@ -467,6 +478,15 @@ def _law_params(lw: Law, values: Mapping[str, float], force: float, w_ref: float
     return params
 
 
+@dataclass(frozen=True)
+class _Options:
+    """Time-series extras: K/W free even when the metadata state it (``fit_stiffness``),
+    and a free initial state per run (``initial_state``)."""
+
+    fit_stiffness: bool = False
+    initial_state: bool = False
+
+
 def _time_series_setup(
     data: xr.Dataset,
     lw: Law,
@@ -475,21 +495,30 @@ def _time_series_setup(
     load_exponent: bool,
     free: Sequence[str] | None,
     initial: Mapping[str, float],
+    options: _Options,
 ) -> _Setup:
-    """Velocity steps and slide-hold-slide: the spring-slider from steady sliding."""
+    """Velocity steps and slide-hold-slide: the spring-slider from steady sliding (or, with
+    ``options.initial_state``, from a fitted state offset per run)."""
     prepared = prepare_runs(data)
     v0 = float(prepared[0].history.velocities[0])
     if not v0 > 0.0:
         raise DataError("the first sample must be in steady sliding (load-point velocity > 0)")
     guess = _standard_guess(prepared)
-    params = {**_initial_params(lw, guess, v0), **initial}
+    params = {**_initial_params(lw, {**guess, **initial}, v0), **initial}
     free_names = _free_names(lw, free, lw.default_free)
     given = stiffness if stiffness is not None else metadata_stiffness(data)
-    if given is None:
+    if given is None or options.fit_stiffness:
         free_names.append(STIFFNESS)
-        params.setdefault(STIFFNESS, 2.0 * guess["stiffness"])
+        params.setdefault(STIFFNESS, 2.0 * guess["stiffness"] if given is None else float(given))
     else:
         params[STIFFNESS] = float(given)
+    offsets = [f"{INITIAL_OFFSET}_{i}" for i in range(len(prepared))]
+    if options.initial_state:
+        if not lw.state_names[0].startswith("ln_"):
+            raise ValueError(f"law {lw.name!r}: a fitted initial state needs an ln(theta) state")
+        free_names.extend(offsets)
+        for name in offsets:
+            params.setdefault(name, 0.0)
     if trend:
         free_names.append(TREND)
         params.setdefault(TREND, 0.0)
@@ -500,11 +529,15 @@ def _time_series_setup(
 
     def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
         out = []
-        for run in prepared:
+        for run, offset in zip(prepared, offsets, strict=True):
             law_params = _law_params(lw, values, run.normal_force, w_ref)
+            start = None
+            if offset in values:  # ln theta_i(0) = ln theta_ss(V(0)) + offset
+                steady = lw.steady_state(run.history.velocities[0], lw.pack(law_params))
+                start = [float(s) + values[offset] for s in steady]
             solution = solve_slider(
                 lw, law_params, run.history, run.time, values[STIFFNESS], rtol=rtol,
-                max_steps=_FIT_MAX_STEPS,
+                initial_state=start, max_steps=_FIT_MAX_STEPS,
             )  # fmt: skip
             out.append(solution.friction + values.get(TREND, 0.0) * run.load_point_displacement)
         return out
@@ -630,6 +663,8 @@ def fit_rsf(
     stiffness: float | None = None,
     trend: bool = False,
     load_exponent: bool = False,
+    fit_stiffness: bool = False,
+    initial_state: bool = False,
     free: Sequence[str] | None = None,
     initial: Mapping[str, float] | None = None,
     holdout: Sequence[NDArray[np.bool_]] | None = None,
@@ -646,7 +681,10 @@ def fit_rsf(
     are fitted by the law's mu_ss(V); clamped-sample curves (s against s_ext) by 000's
     apparatus (use the ``silicon`` or ``two_state`` law). ``load_exponent`` fits
     D_c (W / W_ref)^n across runs at several normal forces (time series and clamped
-    samples). ``free`` overrides the free parameters; ``initial`` the starting values (and
+    samples). ``fit_stiffness`` fits K/W of a time series even when the metadata state it
+    (starting there); ``initial_state`` fits one offset ln(theta(0) / theta_ss(V(0))) per
+    run (``initial_state_offset_<run>``) for records that do not start in steady sliding.
+    ``free`` overrides the free parameters; ``initial`` the starting values (and
     fixes any law parameter that is not free). ``holdout`` (one boolean array per run,
     True = held out) hides samples from the fit; the result's model and residuals still
     cover every sample. ``search`` selects the multi-start grid: every gridded parameter
@@ -659,9 +697,12 @@ def fit_rsf(
         raise ValueError(f"method {method!r} is not one of 'lsq', 'mcmc'")
     kind = data.attrs.get("kind")
     initial = dict(initial or {})
+    options = _Options(fit_stiffness, initial_state)
     if kind == "time_series":
-        setup = _time_series_setup(data, lw, stiffness, trend, load_exponent, free, initial)
-    elif trend or stiffness is not None:
+        setup = _time_series_setup(
+            data, lw, stiffness, trend, load_exponent, free, initial, options
+        )
+    elif trend or stiffness is not None or options != _Options():
         raise ValueError(f"stiffness and trend apply to time series, not to {kind!r} data")
     elif kind == "steady_state":
         if load_exponent:

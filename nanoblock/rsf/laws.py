@@ -5,6 +5,7 @@ a state vector s, chosen so that the ODE drivers never take the log of a vanishi
 quantity and mu depends linearly on w:
 
 * ``aging``, ``slip`` and ``tabor`` use w = ln(v / v0) and s = ln(theta) (theta > 0);
+  ``aging2`` and ``slip2`` (two state variables) use s = (ln theta_1, ln theta_2);
 * ``silicon`` and ``two_state`` (000's laws, zero static threshold) use
   w = ln(1 + v / v*) and s = theta (theta >= 0, and v > -v* allows tiny back-creep).
 
@@ -271,6 +272,41 @@ class TaborLaw(_LogVelocityLaw):
 
 
 @dataclass(frozen=True)
+class TwoStateAgingLaw(_LogVelocityLaw):
+    """Two state variables, each with Dieterich's aging law (Ruina 1983; Rice et al. 2001):
+
+    mu = mu0 + a ln(v/v0) + b ln(v0 theta_1 / Dc) + b2 ln(v0 theta_2 / Dc2),
+    theta_i' = 1 - v theta_i / Dc_i: a contact-scale memory Dc and a longer one Dc2 (gouge
+    fabric, porosity, a second contact population). Parameters (mu0, a, b, dc, b2, dc2, v0).
+    """
+
+    def friction(self, w, s, p):
+        mu0, a, b, dc, b2, dc2, v0 = p
+        return mu0 + a * w + b * (s[0] + math.log(v0 / dc)) + b2 * (s[1] + math.log(v0 / dc2))
+
+    def gradient(self, w, s, p):
+        return p[1], (p[2], p[4])
+
+    def state_rate(self, v, s, p):
+        return (math.exp(-s[0]) - v / p[3], math.exp(-s[1]) - v / p[5])
+
+    def steady_state(self, v, p):
+        v = np.asarray(v, dtype=float)
+        return (np.log(p[3] / v), np.log(p[5] / v))
+
+
+@dataclass(frozen=True)
+class TwoStateSlipLaw(TwoStateAgingLaw):
+    """Two state variables, each with Ruina's slip law: theta_i' = -(v theta_i / Dc_i)
+    ln(v theta_i / Dc_i); friction as :class:`TwoStateAgingLaw`."""
+
+    def state_rate(self, v, s, p):
+        if v <= 0.0:
+            return (0.0, 0.0)
+        return tuple(-(v / dc) * (math.log(v / dc) + si) for dc, si in ((p[3], s[0]), (p[5], s[1])))
+
+
+@dataclass(frozen=True)
 class SiliconLaw(Law):
     """000's silicon-on-steel law (000/Eqs. 1, 7, 14c-d): zero static threshold.
 
@@ -344,6 +380,15 @@ _SILICON_PARAMETERS = (
     Parameter("theta_star", "1", "state scale theta*", log_scale=True),
     _V_THETA,
 )
+_TWO_STATE_PARAMETERS = (
+    _MU0,
+    _A,
+    _B,
+    _DC,
+    Parameter("b2", "1", "second evolution-effect coefficient B2", positive=False),
+    Parameter("dc2", "m", "second (long) memory length Dc2", log_scale=True),
+    _V0,
+)
 _V_STAR = Parameter("v_star", "m/s", "velocity scale v* (held fixed)", log_scale=True)
 
 LAWS: dict[str, Law] = {
@@ -362,6 +407,20 @@ LAWS: dict[str, Law] = {
             (_MU0, _A, _B, _DC, _V0),
             ("ln_theta",),
             ("mu0", "a", "b", "dc"),
+        ),
+        TwoStateAgingLaw(
+            "aging2",
+            "aging law with two state variables (contact-scale Dc, long Dc2)",
+            _TWO_STATE_PARAMETERS,
+            ("ln_theta1", "ln_theta2"),
+            ("mu0", "a", "b", "dc", "b2", "dc2"),
+        ),
+        TwoStateSlipLaw(
+            "slip2",
+            "slip law with two state variables (contact-scale Dc, long Dc2)",
+            _TWO_STATE_PARAMETERS,
+            ("ln_theta1", "ln_theta2"),
+            ("mu0", "a", "b", "dc", "b2", "dc2"),
         ),
         CutoffLaw(
             "cutoff",
