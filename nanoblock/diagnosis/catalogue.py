@@ -23,6 +23,10 @@ class RsfVariant:
     law: str
     trend: bool = False
     load_exponent: bool = False
+    fit_stiffness: bool = False
+    """K/W fitted even where the metadata state it."""
+    initial_state: bool = False
+    """A free initial state per run (the record does not start in steady sliding)."""
     explore: tuple[str, ...] = ()
     """Parameters searched on a grid when the fit is warm-started from the base fit."""
 
@@ -54,6 +58,11 @@ class Effect:
     """What data would show the effect when it cannot be tested on the data at hand."""
     varies: str | None = None
     """A column that must take two or more values for the effect to be testable."""
+    ranges: dict[str, tuple[float, float]] = field(default_factory=dict)
+    """Physically plausible range [low, high] of each parameter the extension adds (SI);
+    a fit outside it is not accepted as the cause."""
+    detector: str = ""
+    """For an effect no smooth surrogate can fit: what recognises it in the record."""
 
 
 CATALOGUE: dict[str, Effect] = {
@@ -160,6 +169,52 @@ CATALOGUE: dict[str, Effect] = {
             "(none: an apparatus and wear effect outside the nanoblock model)",
             {"time_series": RsfVariant("aging", trend=True)},
             "a friction time series with slip",
+            ranges={"slip_trend": (-1e3, 1e3)},
+        ),
+        Effect(
+            "two_state_variable",
+            "two evolution lengths: a contact-scale D_c and a longer D_c2 (gouge fabric, "
+            "porosity, a second contact population), each state relaxing by the aging law",
+            "a sharp decay after a step followed by a slow tail; one-state D_c grows with "
+            "the fit window",
+            {"b2": "second evolution coefficient", "dc2": "second memory length D_c2 [m]"},
+            "(not yet in the simulator: it needs a second contact population with its own "
+            "memory length)",
+            {"time_series": RsfVariant("aging2", explore=("dc2",))},
+            "velocity steps with several D_c of slip after the step",
+            ranges={"b2": (-0.05, 0.05), "dc2": (1e-7, 1e-1)},
+        ),
+        Effect(
+            "non_steady_history",
+            "the record does not start in steady sliding: a preceding step, hold or "
+            "normal-stress change is still relaxing",
+            "drift before the step; a slip trend that does not forecast",
+            {"initial_state_offset_<run>": "ln(theta(0) / theta_ss(V(0))) per run"},
+            "a loading step at another velocity before the record (loading.steps)",
+            {"time_series": RsfVariant("aging", initial_state=True)},
+            "a friction time series with slip before the first step",
+            ranges={"initial_state_offset": (-10.0, 10.0)},
+        ),
+        Effect(
+            "machine_stiffness",
+            "the elastic stiffness of machine and sample differs from the stated calibration",
+            "rise time to the peak and the overshoot after a step mismatched with D_c held",
+            {"stiffness": "K/W [1/m], fitted"},
+            "loading.stiffness",
+            {"time_series": RsfVariant("aging", fit_stiffness=True)},
+            "velocity steps with a stated stiffness (stiffness or stiffness_per_load)",
+            ranges={"stiffness_ratio": (0.2, 5.0)},
+        ),
+        Effect(
+            "unstable_sliding",
+            "the spring-slider is unstable (K below (b - a) / D_c): the record holds "
+            "stick-slip or slow-slip cycles that no smooth law can follow",
+            "regular stress drops with a period in slip; residuals no smooth law reduces",
+            {},
+            "loading.stiffness below (b - a) W / D_c",
+            detector="regular stress drops (count, size, period in slip) in a segment, with "
+            "the base fit's K/W against (b - a) / D_c",
+            needs="a friction time series sampled through the drops",
         ),
     )
 }

@@ -1,15 +1,29 @@
 """The diagnosis: base fit, misfit against the noise, every catalogue extension fitted and
 ranked out of sample, the verdict and its gain (issue 6; physics.md section 5).
 
-Verdict rule. Let IC be the Bayesian information criterion of a fit, and the held-out
-error the RMS residual of samples hidden from the fit (whole runs, or contiguous blocks).
-An extension is *supported* when it lowers IC by more than ``STRONG_EVIDENCE`` (very
-strong evidence; for one extra parameter a false alarm on white noise has probability
-~1e-5 at 5,000 samples), predicts held-out data better than the base model, and removes
-the systematic misfit (its residuals pass the structure tests) or at least half of the
-base model's excess variance over the noise. The cause is the supported extension with
-the lowest IC; without one, the answer is ``none`` when the base residuals are within
-noise and without structure, and ``unexplained`` otherwise.
+Real records first. A time series is averaged to uniform load-point travel
+(:mod:`.resample`), so mixed sampling rates weigh per unit slip and a decimated record
+gives the same verdict; it is searched for stick-slip (:mod:`.drops`), which no smooth
+law can fit (verdict ``unstable_sliding``). The noise is measured twice: white noise at the
+sample scale (second differences) and the floor at the model's resolution (the base
+residuals' scatter about their own running mean over 1 % of the travel). When the floor
+exceeds the white noise by 1.5 the noise is *coloured*: residuals are tested against the
+floor, and information criteria count the effective samples n (1 - phi) / (1 + phi) of
+residuals with lag-1 autocorrelation phi (that of the best-fitting candidate).
+
+Verdict rule. Let IC be that Bayesian information criterion of a fit, and the held-out
+error the RMS residual of samples hidden from the fit (whole runs; for time series a
+forecast of the second half of every segment after the first; contiguous blocks
+otherwise). An extension is *supported* when it lowers IC by more than
+``STRONG_EVIDENCE`` (very strong evidence; for one extra parameter a false alarm on white
+noise has probability ~1e-5 at 5,000 samples), predicts held-out data better than the
+base model, removes the systematic misfit (its residuals pass the structure tests) or at
+least half of the base model's excess variance over the noise, and has every parameter in
+its physical range (:mod:`.plausibility`). The cause is the supported extension with the
+lowest IC that the simulation check, where it runs, does not contradict (switching the
+extension on must lower the simulation's systematic misfit); without one, the answer is
+``none`` when the base residuals are within noise and without structure, and
+``unexplained`` otherwise.
 """
 
 from __future__ import annotations
@@ -26,21 +40,32 @@ import xarray as xr
 from tqdm.auto import tqdm
 
 from nanoblock.diagnosis.catalogue import BASE, CATALOGUE, Effect, Surrogate
-from nanoblock.diagnosis.simulation import simulation_check
+from nanoblock.diagnosis.drops import StickSlip, find_stick_slip
+from nanoblock.diagnosis.plausibility import implausible
+from nanoblock.diagnosis.resample import resample_by_travel
+from nanoblock.diagnosis.simulation import SWITCHES, simulation_check
 from nanoblock.diagnosis.statistics import (
+    COLOURED,
     Structure,
+    effective_size,
     information_criterion,
+    lag1_autocorrelation,
     noise_level,
+    resolution_noise,
     structure,
 )
-from nanoblock.diagnosis.surrogates import Fit, Masks, Measurement
+from nanoblock.diagnosis.surrogates import Fit, Masks, Measurement, forecast_mask
 from nanoblock.diagnosis.validation import check_diagnosable
+from nanoblock.rsf.fit import metadata_stiffness, prepare_runs
 
 STRONG_EVIDENCE = 10.0
 """Delta IC above which an extension counts (Kass and Raftery's 'very strong')."""
 EXCESS_EXPLAINED = 0.5
 """Fraction of the base model's variance in excess of the noise an extension must remove
 when its own residuals still show structure."""
+SIMULATION_TRIES = 2
+"""Supported extensions checked by simulation, best first, before the verdict is
+``unexplained``."""
 
 
 @dataclass
@@ -54,6 +79,8 @@ class Candidate:
     heldout_error: float | None
     """RMS error on held-out folds; None when the IC already rules the model out."""
     structure: Structure
+    implausible: list[str] = field(default_factory=list)
+    """Parameters outside their physical ranges (empty: plausible)."""
 
     @property
     def rms(self) -> float:
@@ -69,6 +96,7 @@ class Candidate:
             "params": self.fit.params,
             "stderr": self.fit.stderr,
             "residual_structure": self.structure.to_json(),
+            "implausible": self.implausible,
         }
 
 
@@ -89,6 +117,11 @@ class Diagnosis:
     covariates: dict[str, list[np.ndarray]] = field(repr=False)
     signal_label: str = "friction mu"
     simulation_check: dict[str, Any] = field(default_factory=dict)
+    noise_model: dict[str, Any] = field(default_factory=dict)
+    """White noise, floor at the model's resolution, whether coloured, effective size."""
+    stick_slip: list[StickSlip] = field(default_factory=list)
+    not_confirmed: dict[str, str] = field(default_factory=dict)
+    """Supported extensions the simulation check contradicted, with why."""
 
     @property
     def extended(self) -> Candidate | None:
@@ -150,6 +183,9 @@ class Diagnosis:
             ),
             "gain": self.gain(),
             "simulation_check": self.simulation_check,
+            "noise_model": self.noise_model,
+            "stick_slip": [event.to_json() for event in self.stick_slip],
+            "not_confirmed": self.not_confirmed,
         }
 
 
@@ -194,40 +230,120 @@ class _Runner:
             self.pool.shutdown()
 
 
-def _fit_candidates(
-    measurement: Measurement,
-    models: dict[str, Surrogate],
-    noise: float,
-    runner: _Runner,
-) -> tuple[Candidate, list[Candidate]]:
-    """Fit the base and every extension, then score out of sample those that can matter.
+@dataclass(frozen=True)
+class _NoiseModel:
+    """The noise a fit is judged against (see the module docstring)."""
 
-    Held-out folds are refitted for the base, the extension with the lowest IC and every
-    extension that passes the IC test of the verdict rule; the others cannot be the cause
-    and keep ``heldout_error = None`` (saving most of the cost on data without an effect).
-    """
+    white: float
+    floor: float
+    coloured: bool
+    n_effective: float | None
+
+    @property
+    def level(self) -> float:
+        return self.floor if self.coloured else self.white
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "white": self.white,
+            "floor": self.floor,
+            "coloured": self.coloured,
+            "n_effective": self.n_effective,
+        }
+
+
+def _noise_model(measurement: Measurement, fits: dict[str, Fit]) -> _NoiseModel:
+    """White noise of the data, the floor at the model's resolution (time series: from the
+    base residuals) and, for coloured noise, the effective size of the best fit's residuals."""
+    white = noise_level(measurement.observed)
+    residuals = {name: _residuals(measurement, fit) for name, fit in fits.items()}
+    if measurement.kind != "time_series":
+        return _NoiseModel(white, white, False, None)
+    floor = resolution_noise(_steady_stretches(measurement, residuals["base"]))
+    if floor <= COLOURED * white:
+        return _NoiseModel(white, floor, False, None)
+    best = min(residuals.values(), key=lambda r: float(sum(np.dot(x, x) for x in r)))
+    n = sum(r.size for r in best)
+    return _NoiseModel(white, floor, True, effective_size(n, lag1_autocorrelation(best)))
+
+
+def _steady_stretches(measurement: Measurement, residuals: list[np.ndarray]) -> list[np.ndarray]:
+    """The residuals in steady sliding: each run's first segment and the second half of
+    every later segment (after the transient), as contiguous stretches."""
+    stretches = []
+    for run, r in zip(measurement.prepared, residuals, strict=True):
+        held = forecast_mask(run)
+        first = np.searchsorted(run.time, run.history.starts[1]) if held.any() else r.size
+        stretches.append(r[:first])
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], held.astype(np.int8), [0]])))
+        stretches.extend(r[i:j] for i, j in zip(edges[::2], edges[1::2], strict=True))
+    return stretches
+
+
+def _residuals(measurement: Measurement, fit: Fit) -> list[np.ndarray]:
+    return [m - y for m, y in zip(fit.model, measurement.observed, strict=True)]
+
+
+def _fit_candidates(
+    measurement: Measurement, models: dict[str, Surrogate], runner: _Runner
+) -> tuple[dict[str, Fit], _NoiseModel, dict[str, Candidate]]:
+    """Fit the base and every extension on all data (extensions warm-started from the
+    base), then measure the noise model and score each fit against it."""
     base_fit = _full_fit(measurement, models["base"], None)
     runner.tick(1)
     names = [name for name in models if name != "base"]
     jobs = [(measurement, models[name], base_fit.start) for name in names]
     fits = {"base": base_fit, **dict(zip(names, runner.map(_full_fit, jobs), strict=True))}
+    noise = _noise_model(measurement, fits)
     candidates = {}
     for name, fit in fits.items():
-        residuals = [m - y for m, y in zip(fit.model, measurement.observed, strict=True)]
+        residuals = _residuals(measurement, fit)
         candidates[name] = Candidate(
             name,
             fit,
             residuals,
-            information_criterion(residuals, fit.n_free),
+            information_criterion(residuals, fit.n_free, noise.n_effective),
             None,
-            structure(residuals, noise),
+            structure(
+                residuals, noise.level, coloured=noise.coloured, n_effective=noise.n_effective
+            ),
+            _implausible(measurement, name, fit),
         )
+    return fits, noise, candidates
+
+
+def _implausible(measurement: Measurement, name: str, fit: Fit) -> list[str]:
+    """Parameters of a time-series fit outside their physical ranges."""
+    if measurement.kind != "time_series":
+        return []
+    travel = max(float(np.ptp(run.load_point_displacement)) for run in measurement.prepared)
+    return implausible(
+        CATALOGUE.get(name), fit.params, measurement.observed, travel,
+        metadata_stiffness(measurement.data),
+    )  # fmt: skip
+
+
+def _score_heldout(
+    measurement: Measurement,
+    models: dict[str, Surrogate],
+    fits: dict[str, Fit],
+    candidates: dict[str, Candidate],
+    runner: _Runner,
+) -> list[Candidate]:
+    """Held-out errors for the base, the extension with the lowest IC and every plausible
+    extension that passes the IC test of the verdict rule; the others cannot be the cause
+    and keep ``heldout_error = None`` (saving most of the cost on data without an effect).
+    Returns the extensions, lowest IC first."""
     base_ic = candidates["base"].information_criterion
-    ranked = sorted(names, key=lambda name: candidates[name].information_criterion)
+    ranked = sorted(
+        (name for name in candidates if name != "base"),
+        key=lambda name: candidates[name].information_criterion,
+    )
     scored = ["base", *ranked[:1]] + [
         name
         for name in ranked[1:]
         if base_ic - candidates[name].information_criterion > STRONG_EVIDENCE
+        and not candidates[name].implausible
     ]
     folds = measurement.folds()
     jobs = [
@@ -239,14 +355,20 @@ def _fit_candidates(
         squared = sum(part[0] for part in parts)
         count = sum(part[1] for part in parts)
         candidates[name].heldout_error = math.sqrt(squared / count)
-    return candidates["base"], [candidates[name] for name in ranked]
+    return [candidates[name] for name in ranked]
 
 
 def _testable(effect: Effect, measurement: Measurement) -> str | None:
     """None if the data can test ``effect``, else the reason (the data it needs)."""
+    if effect.detector and measurement.kind == "time_series":
+        return None
     if measurement.kind not in effect.surrogates:
         return f"needs {effect.needs}" if effect.needs else "no signature in these data"
     if effect.varies and measurement.distinct(effect.varies) < 2:
+        return f"needs {effect.needs}"
+    surrogate = effect.surrogates[measurement.kind]
+    stated = metadata_stiffness(measurement.data)
+    if getattr(surrogate, "fit_stiffness", False) and stated in (None, math.inf):
         return f"needs {effect.needs}"
     return None
 
@@ -267,7 +389,7 @@ def _trends(residuals: list[np.ndarray], covariates: dict[str, list[np.ndarray]]
 
 def _supported(candidate: Candidate, base: Candidate, noise: float) -> bool:
     delta = base.information_criterion - candidate.information_criterion
-    if delta <= STRONG_EVIDENCE or candidate.heldout_error is None:
+    if delta <= STRONG_EVIDENCE or candidate.heldout_error is None or candidate.implausible:
         return False
     if candidate.heldout_error >= base.heldout_error:
         return False
@@ -285,13 +407,18 @@ def diagnose(
     data that cannot support a diagnosis, saying what data would. ``workers`` > 1 fits
     the candidate models on that many processes (the result does not depend on it).
     ``simulate`` runs the simulation check (:mod:`nanoblock.diagnosis.simulation`) on the
-    cause, or on the best extension when there is none.
+    supported extensions (best first, at most ``SIMULATION_TRIES``) and accepts a cause
+    only if switching it on does not make the simulated misfit worse; with no supported
+    extension it checks the best one, for the report.
     """
     if workers < 1:
         raise ValueError(f"workers = {workers!r} is out of range [1, inf)")
     check_diagnosable(data)
+    stick_slip = []
+    if data.attrs.get("kind") == "time_series":
+        stick_slip = find_stick_slip(prepare_runs(data))
+        data = resample_by_travel(data)
     measurement = Measurement(data)
-    noise = noise_level(measurement.observed)
     testable = {
         effect.id: effect for effect in CATALOGUE.values() if _testable(effect, measurement) is None
     }
@@ -301,7 +428,13 @@ def diagnose(
         if (reason := _testable(effect, measurement)) is not None
     }
     models = {"base": BASE[measurement.kind]}
-    models.update({name: effect.surrogates[measurement.kind] for name, effect in testable.items()})
+    models.update(
+        {
+            name: effect.surrogates[measurement.kind]
+            for name, effect in testable.items()
+            if measurement.kind in effect.surrogates
+        }
+    )
     n_folds = len(measurement.folds())
     steps = len(models) + 2 * n_folds  # the held-out count grows with what the IC supports
     with tqdm(total=steps, desc="diagnosis", disable=not progress, leave=False) as bar:
@@ -309,33 +442,55 @@ def diagnose(
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
-                base, candidates = _fit_candidates(measurement, models, noise, runner)
+                fits, noise, scored = _fit_candidates(measurement, models, runner)
+                candidates = _score_heldout(measurement, models, fits, scored, runner)
         finally:
             runner.close()
-    supported = [c for c in candidates if _supported(c, base, noise)]
-    if supported:
-        cause = supported[0].id
-    else:
-        cause = "unexplained" if base.structure.systematic else "none"
+    base = scored["base"]
+    supported = [c for c in candidates if _supported(c, base, noise.level)]
     diagnosis = Diagnosis(
         kind=measurement.kind,
-        noise=noise,
+        noise=noise.level,
         base=base,
         candidates=candidates,
         untestable=untestable,
-        cause=cause,
+        cause="unexplained" if base.structure.systematic else "none",
         trends=_trends(base.residuals, measurement.covariates),
         observed=measurement.observed,
         covariates=measurement.covariates,
         signal_label=measurement.signal_label,
+        noise_model={**noise.to_json(), "samples": int(data.attrs.get("resampled_from", 0))},
+        stick_slip=stick_slip,
     )
-    if simulate:
+    if stick_slip:
+        diagnosis.cause = "unstable_sliding"
+        return diagnosis
+    for candidate in supported:
+        if not simulate or candidate.id not in SWITCHES:
+            diagnosis.cause = candidate.id
+            break
+        if len(diagnosis.not_confirmed) == SIMULATION_TRIES:
+            break
+        check = _simulate(data, base, candidate, progress)
+        diagnosis.simulation_check = check
+        if check["status"] != "ran" or check["systematic_variance_removed"] > 0.0:
+            diagnosis.cause = candidate.id
+            break
+        diagnosis.not_confirmed[candidate.id] = check["summary"]
+    if simulate and not diagnosis.simulation_check:
         other = diagnosis.extended or diagnosis.best
-        diagnosis.simulation_check = simulation_check(
-            data,
-            base.fit.params,
-            None if other is None else other.id,
-            {} if other is None else other.fit.params,
-            progress=progress,
-        )
+        diagnosis.simulation_check = _simulate(data, base, other, progress)
     return diagnosis
+
+
+def _simulate(
+    data: xr.Dataset, base: Candidate, other: Candidate | None, progress: bool
+) -> dict[str, Any]:
+    """The simulation check of ``other`` (None: no extension) against the base."""
+    return simulation_check(
+        data,
+        base.fit.params,
+        None if other is None else other.id,
+        {} if other is None else other.fit.params,
+        progress=progress,
+    )

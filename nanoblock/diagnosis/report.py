@@ -117,12 +117,84 @@ def _verdict_text(diagnosis: Diagnosis) -> list[str]:
         )
     else:
         effect = CATALOGUE[diagnosis.cause]
+        if effect.detector:
+            lines.append(f"- Recognised by: {effect.detector}.")
         lines += [
             f"- **Verdict: {effect.id}.** Cause: {effect.cause}.",
             f"- Signature in data: {effect.signature}.",
             f"- Simulator option: `{effect.simulator}`.",
         ]
     return lines
+
+
+def _summary(diagnosis: Diagnosis) -> str:
+    """The report's first paragraph: what is wrong, in plain words."""
+    base = diagnosis.base.fit.params
+    cause = diagnosis.cause
+    if cause == "unstable_sliding":
+        event = diagnosis.stick_slip[0]
+        critical = (base["b"] - base["a"]) / base["dc"] if "dc" in base else math.nan
+        stiffness = base.get("stiffness", math.nan)
+        return (
+            f"The record is not steady sliding: at {event.load_point_velocity * 1e6:.3g} um/s "
+            f"friction is a regular stick-slip sawtooth ({event.drops} drops of about "
+            f"{event.median_drop:.2g} every {event.period * 1e6:.2g} um of load-point travel). "
+            "No smooth rate-and-state law can fit it, so the base fit there is only a mean "
+            f"curve. Its stiffness K/W = {stiffness:.3g} 1/m against the critical "
+            f"(b - a)/D_c = {critical:.3g} 1/m of the fit (001/Eqs. 9-11) places the slider "
+            + ("below" if stiffness < critical else "near or above")
+            + " the stability boundary."
+        )
+    if cause in ("none", "unexplained"):
+        text = {
+            "none": "The base model explains the record within its noise.",
+            "unexplained": "The base model leaves a systematic misfit that no catalogue "
+            "extension removes with plausible parameters and a better forecast.",
+        }[cause]
+        if diagnosis.not_confirmed:
+            text += " Not confirmed by the simulation: " + "; ".join(diagnosis.not_confirmed)
+        return text
+    fitted = diagnosis.extended.fit.params
+    ratio = diagnosis.gain()["heldout_error_ratio"]
+    forecast = f"it forecasts the held-out data {ratio:.2f} times better than the base model."
+    words = {
+        "two_state_variable": lambda p: (
+            f"After the step friction relaxes in two stages, a contact-scale decay over "
+            f"D_c = {p['dc'] * 1e6:.3g} um and a slow tail over D_c2 = {p['dc2'] * 1e6:.3g} um "
+            f"(b2 = {p['b2']:.2g}) that one state variable cannot follow; "
+        ),
+        "non_steady_history": lambda p: (
+            "The record does not start in steady sliding: friction is still relaxing from an "
+            "earlier change (initial state ln(theta/theta_ss) = "
+            + ", ".join(f"{v:+.2f}" for k, v in p.items() if k.startswith("initial_state"))
+            + "); "
+        ),
+        "slip_trend": lambda p: (
+            f"Friction drifts with slip ({p['slip_trend'] * 1e-3:+.3g} per mm) on top of the "
+            "rate-and-state response, as wear or gouge evolution makes it; "
+        ),
+        "machine_stiffness": lambda p: (
+            f"The rise to the peak after the step says the machine's stiffness is "
+            f"K/W = {p['stiffness']:.4g} 1/m, not the stated "
+            f"{diagnosis.base.fit.params.get('stiffness', math.nan):.4g} 1/m; "
+        ),
+    }
+    effect = CATALOGUE[cause]
+    opening = words[cause](fitted) if cause in words else f"The cause is that {effect.cause}; "
+    return opening + forecast
+
+
+def _noise_text(diagnosis: Diagnosis) -> list[str]:
+    noise = diagnosis.noise_model
+    if not noise.get("coloured"):
+        return []
+    return [
+        f"The noise is coloured: the scatter about a smooth curve in steady sliding is "
+        f"{noise['floor']:.3g}, {noise['floor'] / noise['white']:.1f} times the sample-scale "
+        f"white noise; residuals are judged against it, with {noise['n_effective']:.0f} "
+        "effectively independent samples.",
+        "",
+    ]
 
 
 def _table(candidates: list[Candidate], base: Candidate) -> list[str]:
@@ -153,7 +225,8 @@ def write_report(diagnosis: Diagnosis, source: str, figures: dict[str, Path]) ->
     """The two-minute report: what is wrong, why, what was changed, what was gained."""
     gain = diagnosis.gain()
     other = diagnosis.extended or diagnosis.best
-    lines = [f"# Diagnosis of {source}", "", f"Data kind: {diagnosis.kind}.", ""]
+    lines = [f"# Diagnosis of {source}", "", _summary(diagnosis), "", *_noise_text(diagnosis)]
+    lines += [f"Data kind: {diagnosis.kind}.", ""]
     lines += ["## What is wrong, and why", "", *_verdict_text(diagnosis), ""]
     if other is not None:
         lines += [

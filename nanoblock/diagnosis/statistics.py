@@ -17,6 +17,13 @@ FloatArray = NDArray[np.float64]
 
 MAD_TO_SIGMA = 1.4826
 """Standard deviation of a Gaussian per unit median absolute deviation."""
+RESOLUTION_SAMPLES = 50
+"""Width of the running mean that defines the noise at the model's resolution [samples of
+a record resampled to uniform slip: 5 % of a run's travel]."""
+COLOURED = 1.5
+"""Floor over white noise above which the noise counts as coloured."""
+MAX_LAG1 = 0.99
+"""Largest residual autocorrelation used for the effective sample size."""
 
 
 def noise_level(signals: Sequence[FloatArray]) -> float:
@@ -34,6 +41,35 @@ def noise_level(signals: Sequence[FloatArray]) -> float:
     return float(MAD_TO_SIGMA * np.median(np.abs(centred)) / math.sqrt(6.0))
 
 
+def resolution_noise(residuals: Sequence[FloatArray], width: int = RESOLUTION_SAMPLES) -> float:
+    """Noise at the model's resolution: the scatter of residuals about their own centred
+    running mean over ``width`` samples, which keeps every fluctuation shorter than the
+    window (coloured noise, sensor and servo wobble) and drops a misfit smooth on that
+    scale. Each deviation is divided by sqrt(1 - 1/width), its standard deviation for
+    white noise, and the spread is the MAD (robust to the few windows holding a step), so
+    the floor equals :func:`noise_level` on white noise. Units of the signal."""
+    kernel = np.full(width, 1.0 / width)
+    deviations = []
+    for r in residuals:
+        r = np.asarray(r, dtype=float)
+        if r.size <= width:
+            continue
+        mean = np.convolve(r, kernel, mode="valid")
+        centre = r[width // 2 : width // 2 + mean.size]
+        deviations.append((centre - mean) / math.sqrt(1.0 - 1.0 / width))
+    if not deviations:
+        return noise_level(residuals)
+    pooled = np.concatenate(deviations)
+    return float(MAD_TO_SIGMA * np.median(np.abs(pooled - np.median(pooled))))
+
+
+def effective_size(n: int, lag1: float) -> float:
+    """Effective number of independent samples of n residuals with lag-1 autocorrelation
+    ``lag1`` (AR(1): n (1 - phi) / (1 + phi), phi clipped to [0, MAX_LAG1])."""
+    phi = min(max(lag1, 0.0), MAX_LAG1)
+    return n * (1.0 - phi) / (1.0 + phi)
+
+
 @dataclass(frozen=True)
 class Structure:
     """Tests of residuals for systematic structure (each run tested in sample order)."""
@@ -47,13 +83,22 @@ class Structure:
     lag1_z: float
     """lag1 sqrt(n): about N(0, 1) for white residuals."""
     n: int
+    coloured: bool = False
+    """Whether the noise itself is coloured (its floor at the model's resolution exceeds
+    the sample-scale white noise by ``COLOURED``): then only the variance test applies."""
+    n_effective: float | None = None
+    """Independent samples behind chi^2 (n for white noise)."""
 
     @property
     def systematic(self) -> bool:
-        """Whether the residuals show structure beyond white noise: chi^2 above 1 by more
-        than 5 of its standard errors sqrt(2/n) plus a 10 % allowance for the noise
-        estimate, or sign runs / autocorrelation beyond 5 standard errors."""
-        chi2_limit = 1.1 + 5.0 * math.sqrt(2.0 / self.n)
+        """Whether the residuals show structure beyond the noise: chi^2 above 1 by more
+        than 5 of its standard errors sqrt(2/n_eff) plus a 10 % allowance for the noise
+        estimate, or (white noise only) sign runs / autocorrelation beyond 5 standard
+        errors."""
+        n = self.n_effective or self.n
+        chi2_limit = 1.1 + 5.0 * math.sqrt(2.0 / max(n, 1.0))
+        if self.coloured:
+            return self.chi2_ratio > chi2_limit
         return self.chi2_ratio > chi2_limit or self.runs_z < -5.0 or self.lag1_z > 5.0
 
     def to_json(self) -> dict[str, float | bool | int]:
@@ -63,6 +108,8 @@ class Structure:
             "lag1_autocorrelation": self.lag1,
             "lag1_z": self.lag1_z,
             "n": self.n,
+            "n_effective": self.n_effective or self.n,
+            "coloured_noise": self.coloured,
             "systematic": self.systematic,
         }
 
@@ -93,8 +140,15 @@ def lag1_autocorrelation(residuals: Sequence[FloatArray]) -> float:
     return products / squares if squares > 0.0 else 0.0
 
 
-def structure(residuals: Sequence[FloatArray], noise: float) -> Structure:
-    """Residual structure of a fit against the noise level of the data."""
+def structure(
+    residuals: Sequence[FloatArray],
+    noise: float,
+    *,
+    coloured: bool = False,
+    n_effective: float | None = None,
+) -> Structure:
+    """Residual structure of a fit against the noise level of the data (the floor at the
+    model's resolution when ``coloured``)."""
     pooled = np.concatenate([np.asarray(r, dtype=float) for r in residuals])
     n = pooled.size
     lag1 = lag1_autocorrelation(residuals)
@@ -104,16 +158,22 @@ def structure(residuals: Sequence[FloatArray], noise: float) -> Structure:
         lag1=lag1,
         lag1_z=lag1 * math.sqrt(n),
         n=n,
+        coloured=coloured,
+        n_effective=n_effective,
     )
 
 
-def information_criterion(residuals: Sequence[FloatArray], n_free: int) -> float:
-    """Bayesian information criterion n ln(RSS / n) + k ln n of a Gaussian fit whose
-    variance is also estimated (so a wrong noise estimate does not bias the ranking)."""
+def information_criterion(
+    residuals: Sequence[FloatArray], n_free: int, n_effective: float | None = None
+) -> float:
+    """Bayesian information criterion n_eff ln(RSS / n) + k ln n_eff of a Gaussian fit whose
+    variance is also estimated (so a wrong noise estimate does not bias the ranking);
+    ``n_effective`` counts independent samples of autocorrelated residuals (default n)."""
     pooled = np.concatenate([np.asarray(r, dtype=float) for r in residuals])
     n = pooled.size
     rss = float(pooled @ pooled)
-    return n * math.log(max(rss, 1e-300) / n) + n_free * math.log(n)
+    m = float(n if n_effective is None else n_effective)
+    return m * math.log(max(rss, 1e-300) / n) + n_free * math.log(max(m, 2.0))
 
 
 def blocked_folds(

@@ -20,7 +20,7 @@ from nanoblock.diagnosis.catalogue import RsfVariant, Surrogate
 from nanoblock.diagnosis.statistics import blocked_folds, leave_one_run_out
 from nanoblock.diagnosis.steady import SteadyTable, SteadyVariant, fit_steady
 from nanoblock.measured import DataError, runs
-from nanoblock.rsf.fit import fit_rsf, prepare_runs, split_by_force
+from nanoblock.rsf.fit import RunData, fit_rsf, prepare_runs, split_by_force
 
 FloatArray = NDArray[np.float64]
 Masks = list[NDArray[np.bool_]]
@@ -60,7 +60,8 @@ class Measurement:
         elif self.kind == "clamped_sample":
             self.observed = [part["s"].values for part in self._parts()]
         else:
-            self.observed = [run.mu for run in prepare_runs(data)]
+            self.prepared = prepare_runs(data)
+            self.observed = [run.mu for run in self.prepared]
         self.covariates = self._covariates()
 
     @property
@@ -79,10 +80,15 @@ class Measurement:
 
     def folds(self) -> list[Masks]:
         """Held-out folds: whole runs when there are 3 or more (runs at other loads,
-        temperatures or protocols), else blocked folds: contiguous blocks spread over
-        every run, so that each fold still sees every step, hold and velocity range."""
+        temperatures or protocols); for fewer runs of a time series a forecast, the
+        second half of every segment after the first (a step's relaxation, a hold, a
+        reload) predicted from the record up to its middle, since interleaved blocks
+        reward interpolation; else blocked folds: contiguous blocks spread over every
+        run, so that each fold still sees every step, hold and velocity range."""
         if len(self.observed) >= 3:
             return leave_one_run_out(self.sizes)
+        if self.kind == "time_series":
+            return [[forecast_mask(run) for run in self.prepared]]
         return blocked_folds(self.sizes, N_FOLDS, BLOCK_LENGTH[self.kind])
 
     def _covariates(self) -> dict[str, list[FloatArray]]:
@@ -125,7 +131,8 @@ class Measurement:
         assert isinstance(surrogate, RsfVariant)
         result = fit_rsf(
             self.data, surrogate.law, trend=surrogate.trend,
-            load_exponent=surrogate.load_exponent, holdout=holdout,
+            load_exponent=surrogate.load_exponent, fit_stiffness=surrogate.fit_stiffness,
+            initial_state=surrogate.initial_state, holdout=holdout,
             initial=start, search=True if start is None else surrogate.explore,
         )  # fmt: skip
         summary = result.to_json()
@@ -133,6 +140,18 @@ class Measurement:
             _clean(summary["params"]), _clean(summary["stderr"]), len(result.free),
             result.model, dict(result.params),
         )  # fmt: skip
+
+
+def forecast_mask(run: RunData) -> NDArray[np.bool_]:
+    """Samples in the second half (in time) of every load-point segment after the first."""
+    segment = np.clip(np.searchsorted(run.history.starts, run.time, side="right") - 1, 0, None)
+    held = np.zeros(run.time.size, dtype=bool)
+    for k in range(1, run.history.starts.size):
+        inside = segment == k
+        if inside.any():
+            times = run.time[inside]
+            held |= inside & (run.time >= 0.5 * (times[0] + times[-1]))
+    return held
 
 
 def _steady_table(data: xr.Dataset) -> tuple[SteadyTable, list[int]]:

@@ -1,0 +1,71 @@
+"""Resampling a friction time series to uniform load-point travel before a diagnosis.
+
+Laboratory records mix sampling rates (10, 100 and 1000 Hz in one file, denser during
+fast slip): fitted sample by sample, the densely sampled seconds outweigh the rest, and
+both the noise estimate and the verdict change when the record is decimated. Each run is
+therefore averaged over bins of equal progress of the drive, ``BINS_PER_RUN`` per run,
+never across a change of load-point velocity: progress is the load-point travel, and
+during a hold the time multiplied by the velocity before it. A bin holding several
+samples becomes their mean (time, friction and every other column); a sparsely sampled
+stretch keeps its samples as they are. Records sampled more coarsely than the bins pass
+through unchanged.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+from nanoblock.measured import runs
+from nanoblock.rsf.fit import prepare_runs
+
+BINS_PER_RUN = 1000
+"""Bins of equal load-point progress per run (the model's resolution is 1 % of a run's
+travel: :data:`~nanoblock.diagnosis.statistics.RESOLUTION_SAMPLES` bins)."""
+
+
+_PIECEWISE = ("run", "load_point_velocity")
+"""Columns constant within a bin, kept exactly (a mean would round them)."""
+
+
+def _bin_index(time: np.ndarray, starts: np.ndarray, velocities: np.ndarray) -> np.ndarray:
+    """Bin of every sample: (segment, floor(progress / width)) flattened to one integer."""
+    segment = np.clip(np.searchsorted(starts, time, side="right") - 1, 0, None)
+    moving = np.where(velocities > 0.0, velocities, 0.0)
+    carried = np.maximum.accumulate(np.where(moving > 0.0, np.arange(moving.size), 0))
+    pace = np.where(moving > 0.0, moving, moving[carried])  # holds: the previous velocity
+    if not np.any(pace > 0.0):
+        return np.arange(time.size)
+    pace = np.where(pace > 0.0, pace, pace[pace > 0.0][0])
+    progress = np.concatenate([[0.0], np.cumsum(np.diff(time) * pace[segment[1:]])])
+    width = progress[-1] / BINS_PER_RUN if progress[-1] > 0.0 else 1.0
+    within = np.floor(progress / width).astype(np.int64)
+    return segment.astype(np.int64) * (BINS_PER_RUN + 1) + within
+
+
+def resample_by_travel(data: xr.Dataset) -> xr.Dataset:
+    """A ``time_series`` record averaged over bins of equal drive progress, run by run
+    (see the module docstring); other kinds of data are returned unchanged. The result
+    keeps the variables, their attributes and the record's attributes; ``resampled_from``
+    records the original number of samples."""
+    if data.attrs.get("kind") != "time_series":
+        return data
+    pieces = []
+    for part, prepared in zip(runs(data), prepare_runs(data), strict=True):
+        index = _bin_index(prepared.time, prepared.history.starts, prepared.history.velocities)
+        _, first, inverse, counts = np.unique(
+            index, return_index=True, return_inverse=True, return_counts=True
+        )
+        order = np.argsort(first)
+        columns = {}
+        for name, variable in part.data_vars.items():
+            values = variable.values
+            if values.dtype.kind in "fiu" and name not in _PIECEWISE:
+                sums = np.bincount(inverse, weights=values.astype(float), minlength=counts.size)
+                columns[name] = ("sample", (sums / counts)[order], variable.attrs)
+            else:
+                columns[name] = ("sample", values[first[order]], variable.attrs)
+        pieces.append(xr.Dataset(columns))
+    out = xr.concat(pieces, dim="sample") if len(pieces) > 1 else pieces[0]
+    out.attrs = {**data.attrs, "resampled_from": int(data.sizes["sample"])}
+    return out
