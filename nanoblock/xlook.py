@@ -84,8 +84,8 @@ class XlookTable:
     units: dict[int, str]
     values: dict[int, np.ndarray]
     nrec: int
-    skipped: dict[int, str] = field(default_factory=dict)
-    """Slots a skipped recipe command would have written: what wrote them."""
+    skipped: dict[int, tuple[str, str]] = field(default_factory=dict)
+    """Slots a skipped recipe command would have written: their name then, and the command."""
     elastic: dict[int, float] = field(default_factory=dict)
     """Slots written by ``ec``: its elastic constant in SI [Pa/m] (NaN: unknown units)."""
 
@@ -339,8 +339,8 @@ def apply_recipe(table: XlookTable, recipe: str | Path) -> list[str]:
         position = _SKIPPED_OUTPUT.get(line.words[0].split(".")[0].removesuffix("_tool"))
         if position is not None and line.words[position:] and line.words[position].isdigit():
             slot = int(line.words[position])
+            table.skipped[slot] = (table.names.get(slot, ""), skipped[-1])
             table.remove(slot)
-            table.skipped[slot] = skipped[-1]
     if skipped:
         warnings.warn(
             f"{recipe}: skipped {len(skipped)} command(s) nanoblock does not implement "
@@ -379,6 +379,12 @@ def _find(table: XlookTable, variable: str, wanted: str | int | None, where: str
         return wanted
     names = (wanted.lower(),) if wanted else NAMES[variable]
     slots = [slot for slot, name in table.names.items() if name.lower() in names]
+    stale = [(slot, why) for slot, (name, why) in table.skipped.items() if name.lower() in names]
+    if not slots and stale:
+        raise DataError(
+            f"{where}: column {stale[0][0]} for {variable!r} was rewritten by a command "
+            f"nanoblock does not implement ({stale[0][1]})"
+        )
     if len(slots) > 1:
         raise DataError(f"{where}: columns {slots} are all named like {variable!r}")
     if not slots and wanted:
@@ -415,7 +421,8 @@ def _measured(
         out["mu"] = out["shear_stress"] / out["normal_stress"]
     for variable in ("time", "mu", "load_point_displacement"):
         if variable not in out:
-            left_out = f"; left out by skipped commands: {table.skipped}" if table.skipped else ""
+            why = [why for _, why in table.skipped.values()]
+            left_out = f"; left out by skipped commands: {why}" if why else ""
             raise DataError(
                 f"{where}: the reduced table has no column for {variable!r} (names tried: "
                 f"{list(NAMES[variable])}; columns: "
@@ -429,19 +436,30 @@ def step_velocity(time: np.ndarray, displacement: np.ndarray, window: float = 2.
     """Piecewise-constant load-point velocity [m/s] from a noisy displacement record [m].
 
     Least-squares slopes over ``window`` [s] before and after each sample flag candidate
-    steps where they differ by more than a factor 1.5 (a hold: below 1e-3 of the median
-    slope); each candidate is placed at the best continuous two-slope (hinge) fit within
-    +-``window``; segments under 50 samples, or within a factor 1.5 of a neighbour, are
-    merged; each segment's velocity is the least-squares slope over it (0 for a hold).
+    steps where they differ by more than a factor 1.5 (slopes below three standard errors
+    of the displacement noise, or 1e-3 of the median slope, count as a hold); each
+    candidate is placed at the best continuous two-slope (hinge) fit within +-``window``;
+    segments under 50 samples, or within a factor 1.5 of a neighbour, are merged; each
+    segment's velocity is the least-squares slope over it (0 for a hold).
     """
     t, x = np.asarray(time, dtype=float), np.asarray(displacement, dtype=float)
     n = t.size
     index = np.arange(n)
     starts = np.searchsorted(t, t - window)
     ends = np.searchsorted(t, t + window, side="right")
-    left, right = _slopes(t, x, starts, index + 1), _slopes(t, x, index, ends)
-    floor = 1e-3 * (np.nanmedian(np.abs(right)) or 1.0)
-    ratio = np.abs(np.log(np.maximum(right, floor) / np.maximum(left, floor)))
+    curvature = np.diff(x, 2)
+    noise = 1.4826 / np.sqrt(6.0) * np.median(np.abs(curvature - np.median(curvature)))
+    floor = 1e-3 * (np.nanmedian(np.abs(_slopes(t, x, index, ends)[0])) or 1.0)
+
+    def resolved(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Slopes over lo..hi-1 and the smallest slope told apart from a hold."""
+        slope, spread = _slopes(t, x, lo, hi)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return slope, np.fmax(floor, 3.0 * noise / np.sqrt(np.maximum(spread, 0.0)))
+
+    (left, left_min), (right, right_min) = resolved(starts, index + 1), resolved(index, ends)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.abs(np.log(np.maximum(right, right_min) / np.maximum(left, left_min)))
     covered = (t - t[starts] > 0.5 * window) & (t[ends - 1] - t > 0.5 * window)
     ratio[~(covered & np.isfinite(ratio))] = 0.0
     candidates: list[int] = []
@@ -452,26 +470,31 @@ def step_velocity(time: np.ndarray, displacement: np.ndarray, window: float = 2.
             candidates.append(int(i))
     bounds = np.unique([0, *(_hinge(t, x, starts[i], ends[i]) for i in candidates), n])
     while bounds.size > 2:
-        velocity = np.maximum(_slopes(t, x, bounds[:-1], bounds[1:]), floor)
-        similar = np.abs(np.log(velocity[1:] / velocity[:-1]))
+        velocity, minimum = resolved(bounds[:-1], bounds[1:])
+        velocity = np.maximum(velocity, minimum)
+        with np.errstate(invalid="ignore"):
+            similar = np.nan_to_num(np.abs(np.log(velocity[1:] / velocity[:-1])))
         weak = np.where(np.diff(bounds)[1:] < 50, 0.0, similar)  # a short segment goes
         weak = np.minimum(weak, np.where(np.diff(bounds)[:-1] < 50, 0.0, similar))
         if weak.min() >= np.log(1.5):
             break
         bounds = np.delete(bounds, int(np.argmin(weak)) + 1)
-    velocity = _slopes(t, x, bounds[:-1], bounds[1:])
-    return np.repeat(np.where(velocity > floor, velocity, 0.0), np.diff(bounds))
+    velocity, minimum = resolved(bounds[:-1], bounds[1:])
+    return np.repeat(np.where(velocity > minimum, velocity, 0.0), np.diff(bounds))
 
 
-def _slopes(t: np.ndarray, x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Least-squares slopes of x(t) over samples lo..hi-1 (prefix sums, t and x centred)."""
+def _slopes(
+    t: np.ndarray, x: np.ndarray, lo: np.ndarray, hi: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares slopes of x(t) over samples lo..hi-1 and the spread sum (t - mean)^2
+    of their times (prefix sums of t and x centred)."""
     t, x = t - t.mean(), x - x.mean()
     s0, st, sx, stt, stx = (
         np.concatenate([[0.0], np.cumsum(v)])[hi] - np.concatenate([[0.0], np.cumsum(v)])[lo]
         for v in (np.ones_like(t), t, x, t * t, t * x)
     )
     with np.errstate(divide="ignore", invalid="ignore"):
-        return (s0 * stx - st * sx) / (s0 * stt - st * st)
+        return (s0 * stx - st * sx) / (s0 * stt - st * st), stt - st * st / s0
 
 
 def _hinge(t: np.ndarray, x: np.ndarray, lo: int, hi: int) -> int:
