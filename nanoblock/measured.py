@@ -288,7 +288,7 @@ def _normalise(columns: dict[str, np.ndarray], metadata: dict[str, object], path
         if bad.size:
             raise DataError(
                 f"{path}: column 'normal_stress' must be > 0 (mu = shear_stress / "
-                f"normal_stress); data row {bad[0] + 1} has {normal[bad[0]]!r}"
+                f"normal_stress); data row {bad[0] + 1} has {float(normal[bad[0]])!r}"
             )
         columns["mu"] = columns["shear_stress"] / normal
     for key, (names, scales) in _UNIT_KEYS.items():
