@@ -116,7 +116,10 @@ def _read_text(path: Path) -> str:
             "data or another encoding; a CSV must be UTF-8"
         ) from None
     if "\0" in text:
-        raise DataError(f"{path}: NUL bytes: binary data or UTF-16 text, not a UTF-8 CSV")
+        raise DataError(
+            f"{path}: NUL bytes: binary data or UTF-16 text, not a UTF-8 CSV (an xlook binary "
+            "is read with its reduction recipe)"
+        )
     return text
 
 

@@ -60,8 +60,10 @@ __all__ = [
     "apply_recipe",
     "is_xlook",
     "load_xlook",
+    "parse_rows",
     "read_xlook",
     "recipe_binary",
+    "reduce_xlook",
     "step_velocity",
 ]
 
@@ -516,6 +518,17 @@ def _hinge(t: np.ndarray, x: np.ndarray, lo: int, hi: int) -> int:
     rhs = np.stack([np.full_like(tw, xw.sum()), np.full_like(tw, (tw * xw).sum()), ux], -1)[2:-2]
     explained = np.einsum("ki,ki->k", np.linalg.solve(matrix, rhs[..., None])[..., 0], rhs)
     return lo + 2 + int(np.argmax(explained))
+
+
+def parse_rows(text: str) -> tuple[int, int]:
+    """``"FIRST:LAST"`` (inclusive xlook rows, as a command-line option gives them)."""
+    first, sep, last = text.partition(":")
+    try:
+        if sep:
+            return int(first), int(last)
+    except ValueError:
+        pass
+    raise DataError(f"rows {text!r} must be FIRST:LAST, two integers (inclusive xlook rows)")
 
 
 def reduce_xlook(

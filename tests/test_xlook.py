@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from nanoblock.measured import DataError, load_measurement
-from nanoblock.xlook import RecipeWarning, load_xlook, read_xlook, step_velocity
+from nanoblock.xlook import RecipeWarning, load_xlook, parse_rows, read_xlook, step_velocity
 
 SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 RAW = SHARED_DATA / "raw"
@@ -251,3 +251,15 @@ def test_p446_binary_reads_with_plausible_friction() -> None:
     assert data.sizes["sample"] == 149058 and np.isfinite(mu).all()
     assert 0.55 < np.median(mu[600:148000]) < 0.62 and mu.max() < 0.7
     assert 1e7 < data.attrs["normal_stress"] < 1.5e7
+
+
+def test_rows_option_text_and_the_diagnosis_loader(synthetic) -> None:
+    from nanoblock.diagnosis.validation import load_for_diagnosis
+
+    binary, recipe = synthetic
+    assert parse_rows("200:499") == (200, 499)
+    for text in ("200", "a:b", "1:2:3"):
+        with pytest.raises(DataError, match=f"rows '{text}' must be FIRST:LAST"):
+            parse_rows(text)
+    data = load_for_diagnosis(binary, recipe=recipe, rows=parse_rows("200:499"))
+    np.testing.assert_allclose(data["mu"].values, _expected()["mu"][200:500], rtol=1e-12)
