@@ -1,19 +1,26 @@
 """Reading measured friction data (physics.md section 6) into one validated Dataset.
 
-Accepted files: CSV whose leading ``# key: value`` lines are metadata, netCDF (``.nc``)
-or zarr with the same variable names. Three kinds of data come out, told apart by their
-columns and recorded in ``attrs["kind"]``:
+Accepted files: UTF-8 CSV (a byte-order mark is dropped) whose leading ``# key: value``
+lines are metadata, netCDF (``.nc`` or its signature) or zarr with the same variable
+names, and Penn State xlook binaries (recognised by their header) with their reduction recipe
+(:mod:`nanoblock.xlook`; ``recipe=``, ``rows=``; a recipe alone finds the binary its
+``read`` line names). Three kinds of data come out, told apart by their columns and
+recorded in ``attrs["kind"]``:
 
-* ``time_series``: ``time`` [s], ``mu`` (or ``force`` [N] with ``normal_force`` [N]) and
+* ``time_series``: ``time`` [s], ``mu`` (or ``force`` [N] with ``normal_force`` [N], or
+  ``shear_stress`` with ``normal_stress`` [Pa]) and
   the drive as ``load_point_velocity`` [m/s] and/or ``load_point_displacement`` [m]
   (velocity steps, slide-hold-slide);
 * ``clamped_sample``: 000's apparatus, ``time``, ``s_ext`` and ``s`` [m] (metadata
   ``apparatus: clamped_sample``, ``k_s``, ``k_f``, ``k_ext`` [N/m]);
 * ``steady_state``: a table without ``time``: ``mu`` against ``load_point_velocity``
-  [m/s] (optionally ``temperature`` [K], ``normal_force`` [N]).
+  (or ``velocity``) [m/s] (optionally ``temperature`` [K], ``normal_force`` [N]).
 
 Optional per-row columns: ``slip`` [m], ``normal_force`` [N], ``temperature`` [K] and
-``run`` (an id grouping the rows of one experiment).
+``run`` (an id, number or text, grouping the rows of one experiment). Displacements
+(``load_point_displacement``, ``slip``, ``s_ext``, ``s``) and ``load_point_velocity`` are
+in m and m/s unless the metadata says ``displacement_unit: um`` (m, mm, um, micron, nm) or
+``velocity_unit: um/s`` (m/s, mm/s, um/s, micron/s, nm/s).
 
 A simulator run store (the zarr directory of ``nanoblock run``, recognised by its
 ``scenario`` attribute) reads as a ``time_series`` too (:func:`from_simulation`), so
