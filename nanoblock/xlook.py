@@ -536,7 +536,6 @@ def reduce_xlook(
     recipe: str | Path | None = None,
     rows: tuple[int, int] | None = None,
     columns: Mapping[str, str | int] | None = None,
-    window: float = 2.0,
 ) -> tuple[dict[str, np.ndarray], dict[str, object]]:
     """The measured columns (SI) and metadata of an xlook binary reduced by ``recipe``,
     over the inclusive row window ``rows``; :func:`load_xlook` validates them."""
@@ -560,7 +559,7 @@ def reduce_xlook(
     ok = np.isfinite(measured["time"]) & np.isfinite(measured["load_point_displacement"])
     measured["load_point_velocity"] = np.full(ok.size, np.nan)
     measured["load_point_velocity"][ok] = step_velocity(
-        measured["time"][ok], measured["load_point_displacement"][ok], window
+        measured["time"][ok], measured["load_point_displacement"][ok]
     )
     metadata: dict[str, object] = {
         "source": f"xlook binary {binary.name} ({table.title}) reduced with {Path(recipe).name}, "

@@ -263,3 +263,18 @@ def test_rows_option_text_and_the_diagnosis_loader(synthetic) -> None:
             parse_rows(text)
     data = load_for_diagnosis(binary, recipe=recipe, rows=parse_rows("200:499"))
     np.testing.assert_allclose(data["mu"].values, _expected()["mu"][200:500], rtol=1e-12)
+
+
+@needs_raw
+@pytest.mark.filterwarnings("ignore::nanoblock.xlook.RecipeWarning")
+def test_p655_binary_fits_as_the_csv() -> None:
+    """The aging-law fit of the 100 MPa 2.3 -> 23 um/s step from the binary and from the
+    CSV agree (the detected velocity history is as usable as the CSV's)."""
+    from nanoblock.rsf.fit import fit_rsf
+
+    name = "p655_100MPa_vstep_2p3to23"
+    data = load_xlook(RAW / "p655intact100l", RAW / "p655_r", rows=WINDOWS[name])
+    ours = fit_rsf(data, "aging", trend=True).contract
+    theirs = fit_rsf(load_measurement(SHARED_DATA / f"{name}.csv"), "aging", trend=True).contract
+    for key in ("mu0", "a", "b", "dc"):
+        assert ours[key] == pytest.approx(theirs[key], rel=0.01), key
