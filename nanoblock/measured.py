@@ -1,19 +1,26 @@
 """Reading measured friction data (physics.md section 6) into one validated Dataset.
 
-Accepted files: CSV whose leading ``# key: value`` lines are metadata, netCDF (``.nc``)
-or zarr with the same variable names. Three kinds of data come out, told apart by their
-columns and recorded in ``attrs["kind"]``:
+Accepted files: UTF-8 CSV (a byte-order mark is dropped) whose leading ``# key: value``
+lines are metadata, netCDF (``.nc`` or its signature) or zarr with the same variable
+names, and Penn State xlook binaries (recognised by their header) with their reduction recipe
+(:mod:`nanoblock.xlook`; ``recipe=``, ``rows=``; a recipe alone finds the binary its
+``read`` line names). Three kinds of data come out, told apart by their columns and
+recorded in ``attrs["kind"]``:
 
-* ``time_series``: ``time`` [s], ``mu`` (or ``force`` [N] with ``normal_force`` [N]) and
+* ``time_series``: ``time`` [s], ``mu`` (or ``force`` [N] with ``normal_force`` [N], or
+  ``shear_stress`` with ``normal_stress`` [Pa]) and
   the drive as ``load_point_velocity`` [m/s] and/or ``load_point_displacement`` [m]
   (velocity steps, slide-hold-slide);
 * ``clamped_sample``: 000's apparatus, ``time``, ``s_ext`` and ``s`` [m] (metadata
   ``apparatus: clamped_sample``, ``k_s``, ``k_f``, ``k_ext`` [N/m]);
 * ``steady_state``: a table without ``time``: ``mu`` against ``load_point_velocity``
-  [m/s] (optionally ``temperature`` [K], ``normal_force`` [N]).
+  (or ``velocity``) [m/s] (optionally ``temperature`` [K], ``normal_force`` [N]).
 
 Optional per-row columns: ``slip`` [m], ``normal_force`` [N], ``temperature`` [K] and
-``run`` (an id grouping the rows of one experiment).
+``run`` (an id, number or text, grouping the rows of one experiment). Displacements
+(``load_point_displacement``, ``slip``, ``s_ext``, ``s``) and ``load_point_velocity`` are
+in m and m/s unless the metadata says ``displacement_unit: um`` (m, mm, um, micron, nm) or
+``velocity_unit: um/s`` (m/s, mm/s, um/s, micron/s, nm/s).
 
 A simulator run store (the zarr directory of ``nanoblock run``, recognised by its
 ``scenario`` attribute) reads as a ``time_series`` too (:func:`from_simulation`), so
@@ -26,9 +33,9 @@ wrong raises :class:`DataError` naming the file, the column and the row.
 
 from __future__ import annotations
 
-import io
 import math
 import warnings
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -62,6 +69,8 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "slip": ("m", "slip (load point minus elastic stretch)"),
     "temperature": ("K", "temperature"),
     "run": ("1", "run id"),
+    "shear_stress": ("Pa", "shear stress"),
+    "normal_stress": ("Pa", "normal stress"),
     "s_ext": ("m", "external (motor) extension"),
     "s": ("m", "sample extension"),
 }
@@ -101,9 +110,55 @@ def _parse_metadata(lines: list[str], path: Path) -> dict[str, object]:
     return metadata
 
 
+def _read_text(path: Path) -> str:
+    """The text of a UTF-8 file (a byte-order mark is dropped); other content is refused."""
+    raw = path.read_bytes()
+    if raw[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        raise DataError(f"{path}: UTF-16 text; save the CSV as UTF-8")
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as error:
+        raise DataError(
+            f"{path}: not UTF-8 text (byte {error.start} is {raw[error.start]:#04x}): binary "
+            "data or another encoding; a CSV must be UTF-8"
+        ) from None
+    if "\0" in text:
+        raise DataError(
+            f"{path}: NUL bytes: binary data or UTF-16 text, not a UTF-8 CSV (an xlook binary "
+            "is read with its reduction recipe)"
+        )
+    return text
+
+
+_MISSING = ("", "na", "n/a", "null")
+"""Cells read as a missing value (NaN), besides 'nan'."""
+
+
+def _numbers(cells: np.ndarray, name: str, path: Path, first_line: int) -> np.ndarray:
+    """A column of CSV cells as floats (``run`` may hold any text ids)."""
+    cells = np.where(np.isin(np.char.lower(cells), _MISSING), "nan", cells)
+    try:
+        return cells.astype(float)
+    except ValueError:
+        if name == "run":
+            return cells
+    row = next(i for i, cell in enumerate(cells) if not _is_number(cell))
+    raise DataError(
+        f"{path}: column {name!r} must be numeric; data row {row + 1} (file line "
+        f"{first_line + row}) has {str(cells[row])!r}"
+    )
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object], int]:
-    text = path.read_text()
-    lines = text.splitlines()
+    lines = _read_text(path).splitlines()
     n_meta = 0
     while n_meta < len(lines) and lines[n_meta].startswith("#"):
         n_meta += 1
@@ -113,18 +168,19 @@ def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object], int
     header = [name.strip() for name in lines[n_meta].split(",")]
     if len(set(header)) != len(header):
         raise DataError(f"{path}: repeated column names in the header {header}")
-    body = "\n".join(lines[n_meta + 1 :])
-    if not body.strip():
+    rows = [line.split(",") for line in lines[n_meta + 1 :] if line.strip()]
+    if not rows:
         raise DataError(f"{path}: no data rows")
-    try:
-        table = np.genfromtxt(
-            io.StringIO(body), delimiter=",", dtype=float, invalid_raise=True, ndmin=2
+    widths = np.array([len(row) for row in rows])
+    bad = np.flatnonzero(widths != len(header))
+    if bad.size:
+        raise DataError(
+            f"{path}: data row {bad[0] + 1} has {widths[bad[0]]} values but the header has "
+            f"{len(header)} columns {header}"
         )
-    except ValueError as error:
-        raise DataError(f"{path}: malformed data row ({error})") from None
-    if table.shape[1] != len(header):
-        raise DataError(f"{path}: {table.shape[1]} values per row but {len(header)} columns")
-    return {name: table[:, i] for i, name in enumerate(header)}, metadata, n_meta + 2
+    cells = np.char.strip(np.array(rows, dtype=str))
+    columns = {name: _numbers(cells[:, i], name, path, n_meta + 2) for i, name in enumerate(header)}
+    return columns, metadata, n_meta + 2
 
 
 def from_simulation(run: xr.Dataset) -> xr.Dataset:
@@ -179,7 +235,7 @@ def _read_dataset(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object],
     for name in dataset.variables:
         values = dataset[name].values
         if values.ndim == 1:
-            columns[str(name)] = values.astype(float)
+            columns[str(name)] = values if name == "run" else values.astype(float)
     metadata = {
         key: float(value) if key in _NUMERIC_METADATA else value
         for key, value in dataset.attrs.items()
@@ -198,7 +254,8 @@ def _kind(columns: dict[str, np.ndarray], metadata: dict[str, object], path: Pat
         required = ("time",)
         if "mu" not in columns and not ({"force", "normal_force"} <= set(columns)):
             raise DataError(
-                f"{path}: column 'mu' is missing (or give 'force' [N] with 'normal_force' [N])"
+                f"{path}: column 'mu' is missing (or give 'force' [N] with 'normal_force' [N], "
+                "or 'shear_stress' with 'normal_stress' [Pa])"
             )
         if not ({"load_point_velocity", "load_point_displacement"} & set(columns)):
             raise DataError(
@@ -207,8 +264,51 @@ def _kind(columns: dict[str, np.ndarray], metadata: dict[str, object], path: Pat
             )
     for name in required:
         if name not in columns:
-            raise DataError(f"{path}: required column {name!r} is missing for {kind} data")
+            also = {"load_point_velocity": " (or 'velocity')", "mu": " (or 'shear_stress' with "
+                    "'normal_stress')"}.get(name, "")  # fmt: skip
+            raise DataError(
+                f"{path}: required column {name!r}{also} is missing for {kind} data; columns: "
+                f"{sorted(columns)}"
+            )
     return kind
+
+
+_UNIT_KEYS = {
+    "displacement_unit": (
+        ("load_point_displacement", "slip", "s_ext", "s"),
+        {"m": 1.0, "mm": 1e-3, "um": 1e-6, "micron": 1e-6, "nm": 1e-9},
+    ),
+    "velocity_unit": (
+        ("load_point_velocity",),
+        {"m/s": 1.0, "mm/s": 1e-3, "um/s": 1e-6, "micron/s": 1e-6, "nm/s": 1e-9},
+    ),
+}
+"""Metadata keys giving the unit of the displacement or velocity columns (default SI)."""
+
+
+def _normalise(columns: dict[str, np.ndarray], metadata: dict[str, object], path: Path) -> None:
+    """Accept what users write, in place: ``velocity`` for a steady table's
+    ``load_point_velocity``, ``shear_stress`` / ``normal_stress`` for ``mu``, and
+    displacements or velocities in the unit of ``displacement_unit`` / ``velocity_unit``."""
+    if "time" not in columns and "load_point_velocity" not in columns and "velocity" in columns:
+        columns["load_point_velocity"] = columns.pop("velocity")
+    if "mu" not in columns and {"shear_stress", "normal_stress"} <= set(columns):
+        normal = columns["normal_stress"]
+        bad = np.flatnonzero(normal <= 0.0)
+        if bad.size:
+            raise DataError(
+                f"{path}: column 'normal_stress' must be > 0 (mu = shear_stress / "
+                f"normal_stress); data row {bad[0] + 1} has {float(normal[bad[0]])!r}"
+            )
+        columns["mu"] = columns["shear_stress"] / normal
+    for key, (names, scales) in _UNIT_KEYS.items():
+        unit = metadata.pop(key, None)
+        if unit is None:
+            continue
+        if unit not in scales:
+            raise DataError(f"{path}: metadata {key!r} = {unit!r}; allowed: {list(scales)}")
+        for name in set(names) & set(columns):
+            columns[name] = columns[name] * scales[unit]
 
 
 def _check_order(time: np.ndarray, run: np.ndarray, first_row: int, path: Path) -> None:
@@ -223,13 +323,41 @@ def _check_order(time: np.ndarray, run: np.ndarray, first_row: int, path: Path) 
         )
 
 
-def load_measurement(path: str | Path) -> xr.Dataset:
-    """Read and validate a measured-data file; see the module docstring for the format."""
+def _is_netcdf(path: Path) -> bool:
+    with path.open("rb") as handle:
+        magic = handle.read(4)
+    return path.suffix == ".nc" or magic in (b"CDF\x01", b"CDF\x02", b"\x89HDF")
+
+
+def load_measurement(
+    path: str | Path,
+    *,
+    recipe: str | Path | None = None,
+    rows: tuple[int, int] | None = None,
+    columns: Mapping[str, str | int] | None = None,
+) -> xr.Dataset:
+    """Read and validate a measured-data file; see the module docstring for the format.
+
+    ``recipe``, ``rows`` and ``columns`` are for an xlook binary (:mod:`nanoblock.xlook`):
+    its reduction recipe, the inclusive (first, last) rows to keep and recipe column names.
+    """
+    from nanoblock import xlook
+
     path = Path(path)
     if not path.exists():
         raise DataError(f"{path}: no such file")
-    reader = _read_csv if path.suffix.lower() == ".csv" else _read_dataset
-    columns, metadata, first_row = reader(path)
+    if path.is_file() and recipe is None and (binary := xlook.recipe_binary(path)):
+        path, recipe = binary, path  # a recipe naming its binary
+    if recipe is not None or xlook.is_xlook(path):
+        table, metadata = xlook.reduce_xlook(path, recipe, rows, columns)
+        first_row = 1
+    elif rows is not None or columns is not None:
+        raise DataError(f"{path}: rows and columns select from an xlook binary only")
+    else:
+        reader = _read_dataset if path.is_dir() or _is_netcdf(path) else _read_csv
+        table, metadata, first_row = reader(path)
+    _normalise(table, metadata, path)
+    columns = table
     unknown = sorted(set(columns) - set(COLUMNS))
     if unknown:
         warnings.warn(

@@ -4,6 +4,7 @@ dropped rows counted; ``nanoblock fit`` end to end."""
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -180,3 +181,63 @@ def test_simulator_store_reads_as_a_time_series_and_fits(tmp_path, make_scenario
 def test_rigid_drive_is_infinite_stiffness_metadata(tmp_path, csv_text: str) -> None:
     text = csv_text.replace("# stiffness_per_load: 2500", "# stiffness_per_load: inf")
     assert load_measurement(_write(tmp_path, text)).attrs["stiffness_per_load"] == np.inf
+
+
+def test_byte_order_mark_and_text_run_ids_are_accepted(tmp_path, csv_text: str) -> None:
+    plain = load_measurement(_write(tmp_path, csv_text))
+    marked = tmp_path / "bom.csv"
+    marked.write_bytes(b"\xef\xbb\xbf" + csv_text.encode())
+    np.testing.assert_array_equal(load_measurement(marked)["mu"].values, plain["mu"].values)
+    table = "time,mu,load_point_velocity,run\n0,0.6,1e-6,p655 a\n1,0.6,1e-6,p655 a\n0,0.5,1e-6,b\n"
+    parts = runs(load_measurement(_write(tmp_path, table)))
+    assert [part["run"].values[0] for part in parts] == ["p655 a", "b"]
+    assert [part.sizes["sample"] for part in parts] == [2, 1]
+
+
+def test_velocity_stresses_and_micrometres_are_converted(tmp_path) -> None:
+    """`velocity` names a steady table's load-point velocity; mu = shear / normal stress;
+    `displacement_unit: um` and `velocity_unit: um/s` scale to SI."""
+    steady = load_measurement(_write(tmp_path, "velocity,mu\n1e-6,0.6\n1e-5,0.61\n", "s.csv"))
+    assert steady.attrs["kind"] == "steady_state"
+    np.testing.assert_array_equal(steady["load_point_velocity"].values, [1e-6, 1e-5])
+    text = (
+        "# displacement_unit: um\n# velocity_unit: um/s\n"
+        "time,shear_stress,normal_stress,load_point_displacement,load_point_velocity\n"
+        "0,6e6,1e7,0,1\n1,3.1e6,5e6,1.5,1\n"
+    )
+    data = load_measurement(_write(tmp_path, text))
+    np.testing.assert_allclose(data["mu"].values, [0.6, 0.62])
+    np.testing.assert_allclose(data["load_point_displacement"].values, [0.0, 1.5e-6])
+    np.testing.assert_allclose(data["load_point_velocity"].values, [1e-6, 1e-6])
+    assert "displacement_unit" not in data.attrs
+    with pytest.raises(DataError, match=r"'displacement_unit' = 'inch'; allowed: \['m', 'mm'"):
+        load_measurement(_write(tmp_path, text.replace(": um\n", ": inch\n")))
+    with pytest.raises(DataError, match=r"'normal_stress' must be > 0 .* data row 2 has 0\.0"):
+        load_measurement(_write(tmp_path, text.replace("3.1e6,5e6", "3.1e6,0")))
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        ("time,mu\n0,0.6\n".encode("utf-16"), "UTF-16 text; save the CSV as UTF-8"),
+        ("time,mu\n0,0.6\n".encode("utf-16-le"), "NUL bytes"),
+        (bytes(range(128, 256)) * 4, r"not UTF-8 text \(byte 0 is 0x80\)"),
+        (
+            b"time,mu,load_point_velocity\n0,0.6,1e-6\n1,abc,1e-6\n",
+            r"'mu' must be numeric; data row 2",
+        ),
+        (b"time,mu,load_point_velocity\n0,0.6\n", r"data row 1 has 2 values but the header has 3"),
+        (
+            b"time,friction\n0,0.6\n",
+            r"column 'mu' is missing .*'shear_stress' with 'normal_stress'",
+        ),
+        (b"speed,mu\n1e-6,0.6\n", r"'load_point_velocity' \(or 'velocity'\) is missing .*\['mu'"),
+    ],
+)
+def test_unreadable_or_incomplete_files_name_the_file(tmp_path, content, message) -> None:
+    path = tmp_path / "user.csv"
+    path.write_bytes(content)
+    with pytest.raises(DataError, match=message) as error, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        load_measurement(path)
+    assert str(path) in str(error.value)

@@ -34,13 +34,19 @@ class DiagnosisError(DataError):
     """Data that cannot support a diagnosis (the message says what data would)."""
 
 
-def load_for_diagnosis(path: str | Path) -> xr.Dataset:
-    """Read a measured-data file (or simulator store); rows with missing values are
-    refused rather than dropped, since the noise estimate needs the record as measured."""
+def load_for_diagnosis(
+    path: str | Path,
+    *,
+    recipe: str | Path | None = None,
+    rows: tuple[int, int] | None = None,
+) -> xr.Dataset:
+    """Read a measured-data file (or simulator store; an xlook binary with its ``recipe``
+    and ``rows``); rows with missing values are refused rather than dropped, since the
+    noise estimate needs the record as measured."""
     with warnings.catch_warnings():
         warnings.simplefilter("error", DroppedRowsWarning)
         try:
-            return load_measurement(path)
+            return load_measurement(path, recipe=recipe, rows=rows)
         except DroppedRowsWarning as warning:
             raise DiagnosisError(
                 f"{warning}. A diagnosis needs complete rows: remove or repair the rows with "
