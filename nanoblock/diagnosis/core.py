@@ -20,7 +20,8 @@ noise has probability ~1e-5 at 5,000 samples), predicts held-out data better tha
 base model, removes the systematic misfit (its residuals pass the structure tests) or at
 least half of the base model's excess variance over the noise, and has every parameter in
 its physical range (:mod:`.plausibility`). The cause is the supported extension with the
-lowest IC that the simulation check, where it runs, does not contradict (switching the
+lowest IC (on time series: with the best forecast, which a decimated record keeps) that
+the simulation check, where it runs, does not contradict (switching the
 extension on must lower the simulation's systematic misfit); without one, the answer is
 ``none`` when the base residuals are within noise and without structure, and
 ``unexplained`` otherwise.
@@ -56,6 +57,7 @@ from nanoblock.diagnosis.statistics import (
 )
 from nanoblock.diagnosis.surrogates import Fit, Masks, Measurement, forecast_mask
 from nanoblock.diagnosis.validation import check_diagnosable
+from nanoblock.diagnosis.window_study import window_study
 from nanoblock.rsf.fit import metadata_stiffness, prepare_runs
 
 STRONG_EVIDENCE = 10.0
@@ -122,6 +124,8 @@ class Diagnosis:
     stick_slip: list[StickSlip] = field(default_factory=list)
     not_confirmed: dict[str, str] = field(default_factory=dict)
     """Supported extensions the simulation check contradicted, with why."""
+    window_study: dict[str, Any] = field(default_factory=dict)
+    """Time series: the aging law's D_c against the fit window after the steps."""
 
     @property
     def extended(self) -> Candidate | None:
@@ -186,6 +190,7 @@ class Diagnosis:
             "noise_model": self.noise_model,
             "stick_slip": [event.to_json() for event in self.stick_slip],
             "not_confirmed": self.not_confirmed,
+            "window_study": self.window_study,
         }
 
 
@@ -448,6 +453,8 @@ def diagnose(
             runner.close()
     base = scored["base"]
     supported = [c for c in candidates if _supported(c, base, noise.level)]
+    if measurement.kind == "time_series":  # the best forecast among the supported
+        supported.sort(key=lambda c: c.heldout_error)
     diagnosis = Diagnosis(
         kind=measurement.kind,
         noise=noise.level,
@@ -462,6 +469,8 @@ def diagnose(
         noise_model={**noise.to_json(), "samples": int(data.attrs.get("resampled_from", 0))},
         stick_slip=stick_slip,
     )
+    if measurement.kind == "time_series":
+        diagnosis.window_study = window_study(data)
     if stick_slip:
         diagnosis.cause = "unstable_sliding"
         return diagnosis

@@ -13,6 +13,7 @@ import numpy as np
 
 from nanoblock.diagnosis.catalogue import CATALOGUE
 from nanoblock.diagnosis.core import Candidate, Diagnosis
+from nanoblock.diagnosis.window_study import window_text
 
 ABSCISSA = {
     "time_series": ("load_point_displacement", "load-point displacement (m)"),
@@ -226,6 +227,8 @@ def write_report(diagnosis: Diagnosis, source: str, figures: dict[str, Path]) ->
     gain = diagnosis.gain()
     other = diagnosis.extended or diagnosis.best
     lines = [f"# Diagnosis of {source}", "", _summary(diagnosis), "", *_noise_text(diagnosis)]
+    if diagnosis.window_study:
+        lines += [window_text(diagnosis.window_study), ""]
     lines += [f"Data kind: {diagnosis.kind}.", ""]
     lines += ["## What is wrong, and why", "", *_verdict_text(diagnosis), ""]
     if other is not None:
@@ -241,7 +244,8 @@ def write_report(diagnosis: Diagnosis, source: str, figures: dict[str, Path]) ->
         ]
     check = diagnosis.simulation_check
     if check:
-        lines += ["## Simulation check", "", f"{check.get('summary', check.get('status'))}", ""]
+        said = check.get("summary") or f"not run: {check.get('reason', check.get('status'))}"
+        lines += ["## Simulation check", "", said, ""]
     lines += ["## Ranking (held-out blocks and BIC)", "", *_table(diagnosis.candidates,
                                                                  diagnosis.base), ""]  # fmt: skip
     if diagnosis.untestable:

@@ -211,10 +211,16 @@ def _load_memory(
     )
 
 
+def _stiffness(scenario: Scenario, params: Mapping[str, float], scale: float, _) -> Scenario:
+    """The extended interface is already built at the fitted K/W (loading.stiffness)."""
+    return scenario
+
+
 SWITCHES: dict[str, Callable[[Scenario, Mapping[str, float], float, float], Scenario]] = {
     "velocity_saturation": _saturation,
     "state_velocity_cutoff": _cutoff,
     "load_dependent_dc": _load_memory,
+    "machine_stiffness": _stiffness,
 }
 """Extensions with a simulator option on time series: (base scenario, extension fit,
 scale, W_ref) -> the scenario with the extension switched on."""
@@ -222,6 +228,11 @@ NOT_SIMULATED = {
     "aging_rate": "the slip law's slip-only healing has no exact renewal-model counterpart "
     "on time series (interface.state_cutoff_velocity is the closest option)",
     "slip_trend": "wear and gouge evolution are outside the nanoblock model",
+    "two_state_variable": "the simulated interface has one contact population; a second "
+    "memory length needs a second population, not yet a scenario option",
+    "non_steady_history": "the simulation starts in steady sliding at the first velocity; a "
+    "preceding loading step is not yet aligned with the record's time origin",
+    "unstable_sliding": "stick-slip is recognised from the record's drops, not fitted",
 }
 
 
@@ -292,7 +303,11 @@ def simulation_check(
         for run in prepared:
             base, scale = base_scenario(targets["base"], run, stiffness, temperature, **options)
             plain, scales = base_scenario(
-                targets["extended"], run, stiffness, temperature, **options
+                targets["extended"],
+                run,
+                float(extension_params.get(STIFFNESS, stiffness)),
+                temperature,
+                **options,
             )
             extended = SWITCHES[extension](plain, extension_params, scales, reference_force)
             for name, scenario, factor in (("base", base, scale), ("extended", extended, scales)):
