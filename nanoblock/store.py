@@ -234,8 +234,9 @@ class RunStore:
         """The last intact checkpoint (arrays, resume data), or None if none was written.
 
         If the slot the root attrs point to is damaged, the other slot's checkpoint is
-        used when it is intact, and the root attrs are pointed at it (a resume truncates
-        back to it); StoreError if neither is, or if a stored sample before it is.
+        used when it is intact, and the root attrs are pointed at it and mark the run
+        unfinished (a resume truncates back to it); StoreError if neither slot is intact,
+        or if a stored sample or snapshot before the checkpoint is damaged.
         """
         root = zarr.open_group(self.path, mode="r")
         pointer = root.attrs.get("checkpoint")
@@ -255,8 +256,8 @@ class RunStore:
         data = self.damage(int(resume["samples"]), int(resume.get("snapshots", 0)))
         if data:
             raise StoreError(f"{self.path}: damaged ({'; '.join(data)}): the run cannot be resumed")
-        if slot != current:
-            self.update_attrs(checkpoint={"slot": slot, **resume})
+        if slot != current:  # what follows the earlier checkpoint is to be recomputed
+            self.update_attrs(checkpoint={"slot": slot, **resume}, complete=False)
         group = root["checkpoint"][slot]
         return {name: group[name][...] for name in group.array_keys()}, resume
 
