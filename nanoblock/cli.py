@@ -1,31 +1,78 @@
 """The ``nanoblock`` command line (typer).
 
-Exit codes: 0 success, 1 a sweep finished with failed tasks, 2 bad input (the message
-names the key, value, path or address).
+Exit codes: 0 success, 1 a sweep finished with failed tasks, 2 any failure: one message
+on stderr naming the file, key, path or option, the value and what is allowed; an
+unexpected error is reported in one line too (``nanoblock --debug ...`` shows its
+traceback). Nothing that nanoblock did not write is deleted or overwritten: ``run --out``
+is a new path, an empty directory or a store of the same scenario and seed, and a figure
+replaces only a PNG that nanoblock drew of the same store.
 """
 
 from __future__ import annotations
 
-import time
+import importlib
+import os
+import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from importlib.resources import files
 from pathlib import Path
-from typing import Annotated, NoReturn
+from typing import Annotated, Any, NoReturn
 
+import click
 import typer
+from typer.core import TyperGroup
 
 from nanoblock.params import Scenario, ScenarioError, load_scenario, resolve_seed
+from nanoblock.store import RunStore, StoreError
+
+DEBUG = "nanoblock.debug"
+"""``click.Context.meta`` key of the ``--debug`` flag."""
+
+STAMP = "nanoblock-store"
+"""PNG text key naming the run store a figure was drawn from (its absolute path)."""
+
+
+class _OneMessage(TyperGroup):
+    """Turn an unexpected error into one line on stderr and exit code 2 (with
+    ``--debug``, the traceback)."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except (typer.Exit, typer.Abort, click.exceptions.Exit, click.ClickException):
+            raise
+        except Exception as error:
+            if ctx.meta.get(DEBUG):
+                raise
+            _fail(
+                f"unexpected {type(error).__name__}: {error} "
+                "(run 'nanoblock --debug ...' for the traceback)"
+            )
+
 
 app = typer.Typer(
+    cls=_OneMessage,
     help="nanoblock: Persson's nanoblock model of dry friction, from blocks to rate-and-state.",
     no_args_is_help=True,
     add_completion=False,
+    pretty_exceptions_enable=False,
 )
 
 QUICKSTART = "quickstart.toml"
 
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar")]
+
+
+@app.callback()
+def main(
+    ctx: typer.Context,
+    debug: Annotated[
+        bool, typer.Option("--debug", help="show the traceback of an unexpected error")
+    ] = False,
+) -> None:
+    """nanoblock: Persson's nanoblock model of dry friction, from blocks to rate-and-state."""
+    ctx.meta[DEBUG] = debug
 
 
 def default_scenario() -> Path:
@@ -40,28 +87,122 @@ def _fail(message: object) -> NoReturn:
 
 @contextmanager
 def _bad_input(*errors: type[Exception]) -> Iterator[None]:
-    """Report a refused scenario (or one of ``errors``) and exit with code 2."""
+    """Report a refused scenario or store (or one of ``errors``) and exit with code 2."""
     try:
         yield
-    except (ScenarioError, *errors) as error:
+    except (ScenarioError, StoreError, *errors) as error:
         _fail(error)
 
 
-def _require_store(path: Path) -> None:
-    from nanoblock.store import RunStore
-
-    if not RunStore(path).exists():
+def _open_store(path: Path) -> RunStore:
+    """The run store at ``path``, refused unless it is one whose metadata can be read."""
+    store = RunStore(path)
+    if not store.exists():
         _fail(f"{path}: not a nanoblock run store (no zarr.json)")
+    try:
+        attrs = store.attrs
+    except Exception as error:  # any unreadable root metadata
+        _fail(f"{path}: zarr.json unreadable ({type(error).__name__}: {error})")
+    if "scenario" not in attrs:
+        _fail(f"{path}: a zarr store, but not a nanoblock run (no 'scenario' attribute)")
+    return store
 
 
-def _announce_resume(out: Path, scenario: Scenario) -> None:
-    """Say so when ``out`` holds an unfinished run of ``scenario`` (it will be resumed)."""
-    from nanoblock.store import RunStore
+def _intact(store: RunStore) -> None:
+    """Refuse a store with missing or unreadable chunks, naming array and sample range."""
+    damage = store.damage()
+    if damage:
+        _fail(f"{store.path}: damaged: {'; '.join(damage)}")
 
-    attrs = RunStore(out).attrs if RunStore(out).exists() else {}
-    if attrs.get("scenario") == scenario.resolved_json() and not attrs["complete"]:
-        at = attrs.get("checkpoint", {"samples": 0, "simulated_time": 0.0})
-        typer.echo(f"resuming {out} from sample {at['samples']} (t = {at['simulated_time']} s)")
+
+def _claim_store(out: Path, scenario: Scenario) -> None:
+    """Refuse an ``--out`` that is not a new path, an empty directory or a run store of
+    this scenario and seed (so nothing else can be replaced)."""
+    if out.is_dir() and not RunStore(out).exists():
+        entries = sorted(entry.name for entry in out.iterdir())
+        if entries:
+            _fail(
+                f"{out}: --out is a directory that is not a nanoblock run store (it holds "
+                f"{', '.join(entries[:3])}{', ...' if len(entries) > 3 else ''}); nothing was "
+                "written: it must be a new path or a store of this scenario and seed"
+            )
+    elif out.exists() or out.is_symlink():
+        if not out.is_dir():
+            _fail(f"{out}: --out is an existing file; it must be a new path or a run store")
+        stored = _open_store(out).attrs
+        if stored["scenario"] != scenario.resolved_json():
+            _fail(
+                f"{out}: holds a run of another scenario or seed (stored seed "
+                f"{stored.get('seed')}, this run's {scenario.run.seed}); --out must be a "
+                "new path or a store of this same scenario and seed"
+            )
+        if stored.get("complete"):
+            _intact(RunStore(out))
+
+
+def _claim_file(target: Path, store: Path, option: str) -> None:
+    """Refuse to write figure ``target`` over anything but a figure drawn of ``store``."""
+    if target.is_dir():
+        _fail(f"{target}: {option} names a directory; a PNG file path is required")
+    if target.exists() and not _drawn_of(target, store):
+        _fail(
+            f"{target}: exists and is not a figure nanoblock drew of {store}; nothing was "
+            f"written: choose another {option} or move the file"
+        )
+
+
+def _drawn_of(png: Path, store: Path) -> bool:
+    """Whether ``png`` is a figure nanoblock drew of ``store``."""
+    from PIL import Image
+
+    try:
+        with Image.open(png) as image:
+            return getattr(image, "text", {}).get(STAMP) == str(store.resolve())
+    except (OSError, ValueError):
+        return False
+
+
+def _place_figure(rendered: Path, target: Path, store: Path) -> Path:
+    """Move a PNG drawn in scratch space to ``target`` (atomically), stamped with ``store``."""
+    from PIL import Image, PngImagePlugin
+
+    info = PngImagePlugin.PngInfo()
+    partial = target.with_name(f".{target.name}.partial")
+    with Image.open(rendered) as image:
+        for key, value in image.text.items():
+            info.add_text(key, value)
+        info.add_text(STAMP, str(store.resolve()))
+        image.save(partial, format="PNG", pnginfo=info)
+    os.replace(partial, target)
+    return target
+
+
+def _output_directory(out: Path, option: str = "--out") -> None:
+    """Refuse an output directory that is an existing file (or lies under one)."""
+    for path in (out, *out.parents):
+        if path.exists():
+            if not path.is_dir():
+                _fail(f"{path}: {option} {out} needs a directory there; it is an existing file")
+            return
+
+
+def _require_module(module: str, option: str, install: str) -> None:
+    """Refuse ``option`` before any work when the optional ``module`` is not installed."""
+    try:
+        importlib.import_module(module)
+    except ImportError:
+        _fail(f"{option} needs the {module} package, which is not installed: {install}")
+
+
+def _announce_resume(out: Path) -> None:
+    """Say so when ``out`` holds an unfinished run (it will be resumed, from the last
+    intact checkpoint)."""
+    store = RunStore(out)
+    if not store.exists() or store.attrs.get("complete"):
+        return
+    checkpoint = store.read_checkpoint()
+    at = checkpoint[1] if checkpoint else {"samples": 0, "simulated_time": 0.0}
+    typer.echo(f"resuming {out} from sample {at['samples']} (t = {at['simulated_time']} s)")
 
 
 @app.command()
@@ -73,7 +214,9 @@ def run(
     out: Annotated[Path, typer.Option("--out", "-o", help="zarr store to write")] = Path(
         "nanoblock-run.zarr"
     ),
-    seed: Annotated[int | None, typer.Option(help="random seed (overrides run.seed)")] = None,
+    seed: Annotated[
+        int | None, typer.Option(min=0, max=2**63 - 1, help="random seed (overrides run.seed)")
+    ] = None,
     figure: Annotated[
         Path | None, typer.Option(help="PNG of friction vs slip (default: STORE with .png)")
     ] = None,
@@ -85,22 +228,27 @@ def run(
 ) -> None:
     """Run a scenario, stream it into a zarr store, draw friction vs slip, print a summary.
 
-    Running the same command again on an unfinished store resumes it from its last
-    checkpoint.
+    Running the same command again on an unfinished store resumes it from its last intact
+    checkpoint. --out must be a new path, an empty directory or a store of the same
+    scenario and seed; the figure replaces only a figure drawn of the same store.
     """
     from nanoblock.engine import simulate
     from nanoblock.figures import plot_friction
     from nanoblock.summary import summarize
 
     path = scenario or default_scenario()
+    png = figure or out.with_suffix(".png")
     with _bad_input():
         parsed = resolve_seed(load_scenario(path), seed)
-        _announce_resume(out, parsed)
-        started = time.perf_counter()
+        _output_directory(out.parent)
+        _claim_store(out, parsed)
+        _claim_file(png, out, "--figure")
+        _announce_resume(out)
         result = simulate(parsed, out, progress=not quiet, flush_seconds=flush_seconds)
-    wall = time.perf_counter() - started
-    png = plot_friction(result, figure or out.with_suffix(".png"), title=path.stem)
-    typer.echo(summarize(result, wall))
+    with tempfile.TemporaryDirectory() as scratch:
+        drawn = plot_friction(result, Path(scratch) / png.name, title=path.stem)
+        _place_figure(drawn, png, out)
+    typer.echo(summarize(result))
     typer.echo(f"store                 {out}")
     typer.echo(f"figure                {png}")
 
@@ -144,6 +292,7 @@ def sweep(
     """
     from nanoblock.sweep import Sweep, SweepError, describe, run_sweep
 
+    _output_directory(out)
     with _bad_input(SweepError):
         spec = Sweep.from_file(scenario, assignments or [], seeds)
         report = run_sweep(
@@ -181,9 +330,17 @@ def plot(
     """
     from nanoblock.figures import standard_figures
 
-    _require_store(store)
-    for path in standard_figures(store, out):
-        typer.echo(str(path))
+    run = _open_store(store)
+    _intact(run)
+    directory = out if out is not None else store.parent
+    _output_directory(directory)
+    with tempfile.TemporaryDirectory() as scratch:
+        drawn = standard_figures(store, scratch)
+        for figure in drawn:
+            _claim_file(directory / figure.name, store, "--out")
+        directory.mkdir(parents=True, exist_ok=True)
+        for figure in drawn:
+            typer.echo(str(_place_figure(figure, directory / figure.name, store)))
 
 
 @app.command()
@@ -192,21 +349,24 @@ def info(
 ) -> None:
     """Print a run store's provenance and summary, or a sweep directory's task status.
 
-    Provenance: completion, progress, seed, versions and the resolved scenario.
+    Provenance: completion, progress, seed, versions and the resolved scenario; a damaged
+    store (missing or unreadable chunks) is reported by array and sample range, exit 2.
     """
-    from nanoblock.store import RunStore
+    import xarray as xr
+
     from nanoblock.summary import provenance_text, summarize
     from nanoblock.sweep import MANIFEST, sweep_summary
 
     if (store / MANIFEST).exists():
         typer.echo(sweep_summary(store))
         return
-    _require_store(store)
-    run = RunStore(store).open()
+    run = _open_store(store)
     typer.echo(f"store                 {store}")
-    typer.echo(provenance_text(run))
-    if run.sizes["time"]:
-        typer.echo(summarize(run))
+    typer.echo(provenance_text(xr.Dataset(attrs=run.attrs)))
+    _intact(run)
+    opened = run.open()
+    if opened.sizes["time"]:
+        typer.echo(summarize(opened))
 
 
 @app.command()
@@ -233,6 +393,9 @@ def fit(
     from nanoblock.rsf.fit import fit_rsf
     from nanoblock.rsf.report import write_fit
 
+    _output_directory(out)
+    if mcmc:
+        _require_module("emcee", "--mcmc", "pip install 'nanoblock[mcmc]'")
     with _bad_input(DataError, ValueError):
         measurement = load_measurement(data)
         result = fit_rsf(
@@ -277,6 +440,7 @@ def diagnose(
     from nanoblock.diagnosis.report import write_diagnosis
     from nanoblock.measured import DataError
 
+    _output_directory(out)
     with _bad_input(DiagnosisError, DataError, ValueError):
         measurement = load_for_diagnosis(data)
         result = diagnose(measurement, progress=progress, workers=workers, simulate=simulate)

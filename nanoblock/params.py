@@ -11,12 +11,21 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import tomllib
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal, Self
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    ValidationError,
+    model_validator,
+)
 
 from nanoblock.barriers import (
     BARRIERS,
@@ -25,9 +34,34 @@ from nanoblock.barriers import (
     reduced_barrier_height,
 )
 
-Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
-PositiveOrInf = Annotated[float, Field(gt=0)]  # +inf allowed and meaningful, NaN is not
+
+def _not_bool(value: Any) -> Any:
+    """Refuse a boolean where a number is expected (``temperature = true`` is not 1 K)."""
+    if isinstance(value, bool):
+        raise ValueError("a boolean is not a number")
+    return value
+
+
+# Floats are strict (no booleans, no strings; integers are accepted); integers refuse
+# booleans but accept numpy integers.
+Positive = Annotated[float, Field(gt=0, allow_inf_nan=False, strict=True)]
+NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False, strict=True)]
+PositiveOrInf = Annotated[float, Field(gt=0, strict=True)]  # +inf allowed, NaN is not
+Count = Annotated[int, BeforeValidator(_not_bool)]
+
+U_MAX = 700.0
+"""Largest reduced barrier u = U_a / k_B T: exp(-u) underflows in double precision near
+745, and above ~700 the blocks never depin thermally (only athermally at sigma_a)."""
+
+MAX_EVENTS_PER_SAMPLE = 1e9
+"""Most block depinnings expected between two stored samples (~1 min of work at the
+engine's throughput); more means a run that does not finish in practice."""
+
+MAX_EVENTS = 1e12
+"""Most block depinnings expected over a whole run (about a day of work)."""
+
+MAX_SAMPLES = 10**9
+"""Most stored samples of a run (their times alone take 8 GB of memory)."""
 
 JOINT_DENSITY = 1.0e3
 """Mass density [kg/m^3] used for the default block mass m_b = rho b^3."""
@@ -92,7 +126,7 @@ class Joint(_Section):
     threshold_spread: NonNegative = Field(
         0.0, description="log-standard deviation of sigma_a across contacts"
     )
-    strength_classes: int | None = Field(
+    strength_classes: Count | None = Field(
         None, ge=1, description="strength classes; default 1 without spread, else 8"
     )
     glass_temperature: PositiveOrInf = Field(
@@ -130,7 +164,19 @@ class Joint(_Section):
             object.__setattr__(self, "strength_classes", classes)
         if self.back_jumps:
             self._check_back_jumps()
+        self._check_barrier()
         return self
+
+    def _check_barrier(self) -> None:
+        """Refuse a barrier so high (cold joint, strong threshold) that nothing depins."""
+        if self.u > U_MAX:
+            coldest = self.u * self.temperature / U_MAX
+            raise ValueError(
+                f"at {self.temperature:.4g} K the blocks never depin thermally: "
+                f"u = U_a / k_B T = {self.u:.4g} exceeds {U_MAX:g} (exp(-u) underflows); "
+                f"allowed for this joint (threshold_stress, block_size, shear_modulus): "
+                f"temperature >= {coldest:.4g} K"
+            )
 
     def _soften(self) -> None:
         """Replace sigma_a(T_ref) by sigma_a(T) of the linear softening law near T_g."""
@@ -203,12 +249,14 @@ class Interface(_Section):
 
     normal_force: Positive = Field(description="normal load W [N]")
     hardness: Positive = Field(description="mean contact pressure p [Pa]; Sigma_r = W / p")
-    n_contacts: int = Field(ge=1, description="number of simulated contacts N_c")
-    blocks_per_contact: int = Field(ge=1, description="nanoblocks in each contact's chain")
+    n_contacts: Count = Field(ge=1, description="number of simulated contacts N_c")
+    blocks_per_contact: Count = Field(ge=1, description="nanoblocks in each contact's chain")
     memory_length: PositiveOrInf = Field(
         description="mean contact lifetime in slip D0 [m]; inf disables renewal"
     )
-    aging_m: NonNegative = Field(0.0, description="logarithmic area growth m (001/Eq. 5)")
+    aging_m: NonNegative = Field(
+        0.0, le=1.0, description="logarithmic area growth m (001/Eq. 5); measured 0.01-0.1"
+    )
     aging_time: Positive = Field(1e-3, description="creep onset time tau_m [s] (001/Eq. 5)")
     state_cutoff_velocity: PositiveOrInf | None = Field(
         None, description="v_theta [m/s] of 000/Eq. 7; absent = the clock always runs"
@@ -299,7 +347,9 @@ class Loading(_Section):
 class Run(_Section):
     """Run control: seed, sampling, initial state and numerics."""
 
-    seed: int | None = Field(None, ge=0, description="random seed; drawn and recorded if absent")
+    seed: Count | None = Field(
+        None, ge=0, lt=2**63, description="random seed; drawn and recorded if absent"
+    )
     record_every: Positive = Field(description="simulated time between stored samples [s]")
     initial_state: Literal["unloaded", "steady"] = Field("unloaded")
     step_slip: Positive | None = Field(
@@ -307,7 +357,7 @@ class Run(_Section):
         description="slider slip per internal step [m]; default rho~_max / 4 with a finite "
         "spring, unlimited with a rigid one",
     )
-    snapshot_every: int = Field(0, ge=0, description="store block snapshots every N samples")
+    snapshot_every: Count = Field(0, ge=0, description="store block snapshots every N samples")
 
 
 class Scenario(_Section):
@@ -326,6 +376,45 @@ class Scenario(_Section):
                 f"interface.n_contacts = {n_contacts} must be a multiple of "
                 f"joint.strength_classes = {classes}: every strength class holds the same "
                 "number of contacts"
+            )
+        return self
+
+    @model_validator(mode="after")
+    def _feasible(self) -> Self:
+        """Refuse, before anything is allocated, a run this machine cannot hold or finish."""
+        needs = requirements(self)
+        run, interface = self.run, self.interface
+        if needs.samples > MAX_SAMPLES:
+            raise ValueError(
+                f"run.record_every = {run.record_every!r} s over the protocol's "
+                f"{self.total_time:.4g} s would store {needs.samples:.3g} samples; at most "
+                f"{MAX_SAMPLES:.0e} are allowed (record_every >= "
+                f"{self.total_time / MAX_SAMPLES:.3g} s)"
+            )
+        available = physical_memory()
+        if needs.memory > available:
+            raise ValueError(
+                f"interface.n_contacts = {interface.n_contacts} x "
+                f"interface.blocks_per_contact = {interface.blocks_per_contact} = "
+                f"{needs.blocks:.3g} blocks and {needs.samples:.3g} samples would need "
+                f"{needs.memory / 1e9:.3g} GB of memory; this machine has "
+                f"{available / 1e9:.3g} GB"
+            )
+        if needs.events_per_sample > MAX_EVENTS_PER_SAMPLE:
+            joint = self.joint
+            raise ValueError(
+                f"the {needs.blocks:.3g} blocks would depin ~{needs.events_per_sample:.3g} "
+                f"times per sample (run.record_every = {run.record_every!r} s): at "
+                f"{joint.temperature:.4g} K they hop over their barrier without load "
+                f"(u = {joint.u:.4g}: {needs.thermal_rate:.3g} /s per block) and sliding "
+                f"moves each across rho~_max {needs.driven_rate:.3g} times per s; at most "
+                f"{MAX_EVENTS_PER_SAMPLE:.0e} per sample are allowed: lower "
+                "joint.temperature, run.record_every or the number of blocks"
+            )
+        if needs.events > MAX_EVENTS:
+            raise ValueError(
+                f"the run would take ~{needs.events:.3g} block depinnings (days of work); "
+                f"at most {MAX_EVENTS:.0e} are allowed: fewer blocks or a shorter protocol"
             )
         return self
 
@@ -359,6 +448,49 @@ class Scenario(_Section):
         return from_mapping(json.loads(text), source="stored scenario")
 
 
+BYTES_PER_BLOCK = 64
+"""Memory per block of a run: its stretch and hazard, the initial state's temporaries."""
+
+BYTES_PER_CONTACT = 128
+"""Memory per contact: age, slip, lifetime, events, random streams, scratch."""
+
+
+@dataclass(frozen=True)
+class Requirements:
+    """What a scenario needs before it runs: sizes, memory [B], expected depinnings."""
+
+    samples: float
+    blocks: int
+    memory: float
+    thermal_rate: float  # zero-stress escape rate per block [1/s]
+    driven_rate: float  # threshold crossings per block at the fastest drive [1/s]
+    events_per_sample: float
+    events: float
+
+
+def requirements(scenario: Scenario) -> Requirements:
+    """Estimate the samples, memory and block depinnings of a run (nothing is allocated)."""
+    joint, interface, run = scenario.joint, scenario.interface, scenario.run
+    samples = scenario.total_time / run.record_every + 1
+    blocks = interface.n_contacts * interface.blocks_per_contact
+    memory = 8.0 * samples + BYTES_PER_BLOCK * blocks + BYTES_PER_CONTACT * interface.n_contacts
+    thermal = joint.attempt_frequency * math.exp(-min(joint.u, U_MAX))
+    velocity = max(step.load_velocity for step in scenario.loading.steps)
+    driven = velocity / joint.rho_max
+    travel = sum(step.load_velocity * step.length for step in scenario.loading.steps)
+    per_sample = blocks * run.record_every * (thermal + driven)
+    events = blocks * (thermal * scenario.total_time + travel / joint.rho_max)
+    return Requirements(samples, blocks, memory, thermal, driven, per_sample, events)
+
+
+def physical_memory() -> float:
+    """Physical memory of this machine [B] (inf where the platform does not say)."""
+    try:
+        return float(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return math.inf
+
+
 def _format_errors(error: ValidationError, source: str) -> str:
     lines = [f"{source}: invalid scenario"]
     for item in error.errors():
@@ -376,11 +508,14 @@ def _format_errors(error: ValidationError, source: str) -> str:
 
 
 def _allowed_range(ctx: dict[str, Any]) -> str:
-    low = ctx.get("gt", ctx.get("ge"))
-    if low is None:
+    low, high = ctx.get("gt", ctx.get("ge")), ctx.get("lt", ctx.get("le"))
+    if low is None and high is None:
         return ""
-    bracket = "(" if "gt" in ctx else "["
-    return f" (allowed range {bracket}{low}, inf))"
+    left = "[" if "ge" in ctx else "("
+    right = "]" if "le" in ctx else ")"
+    low = "-inf" if low is None else low
+    high = "inf" if high is None else high
+    return f" (allowed range {left}{low}, {high}{right})"
 
 
 def from_mapping(data: dict[str, Any], source: str = "scenario") -> Scenario:
@@ -395,9 +530,15 @@ def read_toml(path: str | Path) -> dict[str, Any]:
     """The raw mapping of a TOML scenario file; ``ScenarioError`` if missing or invalid."""
     path = Path(path)
     try:
-        return tomllib.loads(path.read_text())
+        return tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise ScenarioError(f"{path}: scenario file not found") from None
+    except IsADirectoryError:
+        raise ScenarioError(f"{path}: is a directory; a scenario TOML file is required") from None
+    except UnicodeDecodeError as error:
+        raise ScenarioError(f"{path}: not a UTF-8 text file ({error.reason})") from None
+    except OSError as error:
+        raise ScenarioError(f"{path}: cannot be read ({error.strerror})") from None
     except tomllib.TOMLDecodeError as error:
         raise ScenarioError(f"{path}: not valid TOML ({error})") from None
 

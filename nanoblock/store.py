@@ -5,6 +5,12 @@ block snapshots along ``snapshot_time``. After each flush the full kernel state 
 to one of two alternating checkpoint slots in the ``checkpoint`` subgroup, and only then
 is the root attribute pointing to it updated, so a run killed at any moment keeps every
 flushed sample and a complete checkpoint to resume from.
+
+Integrity: every array written since the ``integrity`` root attr exists carries a crc32c
+checksum on each chunk and writes every chunk, even one of fill values, so a chunk that is
+missing or altered is found by :meth:`RunStore.damage` (older stores: unreadable chunks
+only). Each checkpoint slot also holds its own resume data, so a resume falls back to the
+other slot when the last one is damaged.
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ import dask.array
 import numpy as np
 import xarray as xr
 import zarr
+from zarr.codecs import Crc32cCodec, ZstdCodec
 
 TIME_CHUNK = 4096
 """Samples per zarr chunk along ``time``."""
@@ -64,6 +71,17 @@ SNAPSHOTS: dict[str, VariableSpec] = {
     "contact_age": VariableSpec(("snapshot_time", "contact"), "s", "age of each contact"),
 }
 """Block-level snapshots (the agents' trajectories)."""
+
+INTEGRITY = "crc32c"
+"""Root attr ``integrity`` of a store whose chunks are all written and checksummed."""
+
+CHECKED = {"compressors": (ZstdCodec(), Crc32cCodec())}
+"""Encoding of every array of a store: zstd, then a crc32c checksum of each chunk."""
+
+
+class StoreError(ValueError):
+    """A store that cannot be used as asked: the message names the path and the reason."""
+
 
 COORDINATES: dict[str, VariableSpec] = {
     "time": VariableSpec(("time",), "s", "simulated time"),
@@ -117,28 +135,62 @@ class RunStore:
         zarr.open_group(self.path, mode="a").attrs.update(attrs)
 
     def create(self, first: xr.Dataset, attrs: Mapping[str, Any]) -> None:
-        """Write the first samples and the provenance attributes (replacing any store)."""
-        first = first.assign_attrs(dict(attrs))
-        encoding = {name: {"chunks": (TIME_CHUNK,)} for name in SAMPLES}
-        first.to_zarr(self.path, mode="w", zarr_format=3, consolidated=False, encoding=encoding)
+        """Write the first samples and the provenance attributes, replacing only a store
+        of nanoblock's own arrays (StoreError if the path holds anything else)."""
+        self._refuse_foreign()
+        first = first.assign_attrs({**attrs, "integrity": INTEGRITY})
+        encoding = {name: {"chunks": (TIME_CHUNK,), **CHECKED} for name in [*SAMPLES, "time"]}
+        first.to_zarr(
+            self.path,
+            mode="w",
+            zarr_format=3,
+            consolidated=False,
+            encoding=encoding,
+            write_empty_chunks=True,
+        )
+
+    def _refuse_foreign(self) -> None:
+        """StoreError if the path is a file or holds entries a run store does not have."""
+        if not self.path.exists():
+            return
+        if not self.path.is_dir():
+            raise StoreError(f"{self.path}: is a file, not a nanoblock run store")
+        ours = {"zarr.json", "checkpoint", *SAMPLES, *SNAPSHOTS, *COORDINATES}
+        foreign = sorted(p.name for p in self.path.iterdir() if p.name not in ours)
+        if foreign or (any(self.path.iterdir()) and not self.exists()):
+            shown = ", ".join(foreign[:3]) or "arrays without zarr.json"
+            raise StoreError(
+                f"{self.path}: not a nanoblock run store (it holds {shown}); nothing was "
+                "written: choose a new path"
+            )
 
     def append(self, samples: xr.Dataset) -> None:
         """Append samples along ``time`` (xarray rewrites root attrs: keep the stored ones)."""
         samples = samples.assign_attrs(self.attrs)
-        samples.to_zarr(self.path, append_dim="time", consolidated=False)
+        samples.to_zarr(self.path, append_dim="time", consolidated=False, write_empty_chunks=True)
 
     def append_snapshots(self, snapshots: xr.Dataset) -> None:
         """Append block snapshots along ``snapshot_time`` (creating them the first time)."""
         snapshots = snapshots.assign_attrs(self.attrs)
         if "snapshot_time" in self._root_arrays():
-            snapshots.to_zarr(self.path, append_dim="snapshot_time", consolidated=False)
+            snapshots.to_zarr(
+                self.path, append_dim="snapshot_time", consolidated=False, write_empty_chunks=True
+            )
         else:
             n_contacts, n_blocks = snapshots.sizes["contact"], snapshots.sizes["block"]
             chunks = (1, min(n_contacts, max(1, 2**20 // max(n_blocks, 1))), n_blocks)
             encoding = {
-                name: {"chunks": chunks[: len(spec.dims)]} for name, spec in SNAPSHOTS.items()
+                name: {"chunks": chunks[: len(spec.dims)], **CHECKED}
+                for name, spec in SNAPSHOTS.items()
             }
-            snapshots.to_zarr(self.path, mode="a", consolidated=False, encoding=encoding)
+            encoding["snapshot_time"] = {"chunks": (1,), **CHECKED}
+            snapshots.to_zarr(
+                self.path,
+                mode="a",
+                consolidated=False,
+                encoding=encoding,
+                write_empty_chunks=True,
+            )
 
     def _root_arrays(self) -> set[str]:
         return set(zarr.open_group(self.path, mode="r").array_keys())
@@ -159,25 +211,99 @@ class RunStore:
         resume: Mapping[str, Any],
         progress: Mapping[str, Any],
     ) -> None:
-        """Store the full kernel state in the free slot, then, in one metadata write,
-        point the ``checkpoint`` attr at it (with the ``resume`` data) and set ``progress``."""
+        """Store the full kernel state in the free slot (its resume data cleared first and
+        written last), then, in one metadata write, point the ``checkpoint`` attr at it
+        (with the ``resume`` data) and set ``progress``."""
         root = zarr.open_group(self.path, mode="a")
         current = root.attrs.get("checkpoint", {}).get("slot")
         slot = "b" if current == "a" else "a"
         group = root.require_group("checkpoint").require_group(slot)
+        group.attrs.put({})
         for name, array in arrays.items():
-            group.create_array(name, data=np.asarray(array), overwrite=True)
+            group.create_array(
+                name,
+                data=np.asarray(array),
+                overwrite=True,
+                config={"write_empty_chunks": True},
+                **CHECKED,
+            )
+        group.attrs.put(dict(resume))
         root.attrs.update({"checkpoint": {"slot": slot, **resume}, "progress": dict(progress)})
 
     def read_checkpoint(self) -> tuple[dict[str, np.ndarray], dict[str, Any]] | None:
-        """The last complete checkpoint (arrays, progress), or None."""
+        """The last intact checkpoint (arrays, resume data), or None if none was written.
+
+        If the slot the root attrs point to is damaged, the other slot's checkpoint is
+        used when it is intact, and the root attrs are pointed at it and mark the run
+        unfinished (a resume truncates back to it); StoreError if neither slot is intact,
+        or if a stored sample or snapshot before the checkpoint is damaged.
+        """
         root = zarr.open_group(self.path, mode="r")
         pointer = root.attrs.get("checkpoint")
         if not pointer:
             return None
-        group = root["checkpoint"][pointer["slot"]]
-        arrays = {name: group[name][...] for name in group.array_keys()}
-        return arrays, {k: v for k, v in pointer.items() if k != "slot"}
+        current = pointer["slot"]
+        damaged = self._slot_damage(current)
+        slot, resume = current, {k: v for k, v in pointer.items() if k != "slot"}
+        if damaged:
+            slot = "b" if current == "a" else "a"
+            resume = self._slot_resume(slot)
+            if resume is None or self._slot_damage(slot):
+                raise StoreError(
+                    f"{self.path}: checkpoint damaged ({'; '.join(damaged)}) and no intact "
+                    "earlier one: the run cannot be resumed on its own trajectory"
+                )
+        data = self.damage(int(resume["samples"]), int(resume.get("snapshots", 0)))
+        if data:
+            raise StoreError(f"{self.path}: damaged ({'; '.join(data)}): the run cannot be resumed")
+        if slot != current:  # what follows the earlier checkpoint is to be recomputed
+            self.update_attrs(checkpoint={"slot": slot, **resume}, complete=False)
+        group = root["checkpoint"][slot]
+        return {name: group[name][...] for name in group.array_keys()}, resume
+
+    def _slot(self, slot: str) -> zarr.Group | None:
+        """A checkpoint slot's group (None if it was never written)."""
+        try:
+            return zarr.open_group(self.path, mode="r")[f"checkpoint/{slot}"]
+        except KeyError:
+            return None
+
+    def _slot_resume(self, slot: str) -> dict[str, Any] | None:
+        """The resume data a checkpoint slot was completed with (None: never completed)."""
+        group = self._slot(slot)
+        attrs = dict(group.attrs) if group is not None else {}
+        return attrs if "samples" in attrs else None
+
+    def _slot_damage(self, slot: str) -> list[str]:
+        """Missing or unreadable chunks of a checkpoint slot."""
+        group = self._slot(slot)
+        if group is None:
+            return [f"checkpoint/{slot}: missing"]
+        checked = self.path if self.attrs.get("integrity") == INTEGRITY else None
+        problems = []
+        for name in group.array_keys():
+            problems += _chunk_damage(group[name], f"checkpoint/{slot}/{name}", None, checked)
+        if not problems and not list(group.array_keys()):
+            problems.append(f"checkpoint/{slot}: holds no arrays")
+        return problems
+
+    def damage(self, n_samples: int | None = None, n_snapshots: int | None = None) -> list[str]:
+        """Every missing or unreadable chunk of the stored samples and snapshots, named by
+        array and sample (or snapshot) range, up to ``n_samples`` and ``n_snapshots``
+        (default: what :meth:`open` shows); and of the checkpoint of an unfinished run."""
+        attrs = self.attrs
+        pointer = attrs.get("checkpoint") or {}
+        unfinished = not attrs.get("complete", True) and pointer
+        if n_samples is None:
+            n_samples = int(pointer["samples"]) if unfinished else None
+            n_snapshots = int(pointer.get("snapshots", 0)) if unfinished else None
+        group = zarr.open_group(self.path, mode="r")
+        present = set(group.array_keys())
+        problems = [f"{name}: array missing" for name in [*SAMPLES, "time"] if name not in present]
+        checked = self.path if attrs.get("integrity") == INTEGRITY else None
+        for array, keep in _appended(group, n_samples, n_snapshots):
+            problems += _chunk_damage(array, array.basename, keep, checked)
+        return problems
 
     def open(self) -> xr.Dataset:
         """Open the stored run lazily; an unfinished run as far as its last checkpoint.
@@ -215,6 +341,42 @@ def _appended(
         array = group[name]
         dims = array.metadata.dimension_names or ()
         yield array, keep.get(dims[0]) if dims else None
+
+
+def _chunk_damage(array: zarr.Array, name: str, keep: int | None, root: Path | None) -> list[str]:
+    """Chunks of ``array`` (its first ``keep`` rows; None: all) that are missing (looked
+    for only with ``root``: a store whose chunks are all written) or fail to decode."""
+    if not array.shape:
+        return _unreadable(array, (), name)
+    keep = array.shape[0] if keep is None else min(keep, array.shape[0])
+    step = array.chunks[0]
+    dims = array.metadata.dimension_names or ("",)
+    unit = {"time": "samples", "snapshot_time": "snapshots"}.get(dims[0], "rows")
+    counts = [-(-size // chunk) for size, chunk in zip(array.shape, array.chunks, strict=True)]
+    problems = []
+    for index in range(-(-keep // step)):
+        rows = slice(index * step, min((index + 1) * step, keep))
+        where = f"{name}: {unit} {rows.start}-{rows.stop - 1}"
+        keys = (
+            array.metadata.encode_chunk_key((index, *coords)) for coords in np.ndindex(*counts[1:])
+        )
+        missing = [
+            key for key in keys if root is not None and not (root / array.path / key).exists()
+        ]
+        if missing:
+            problems.append(f"{where} missing (chunk {missing[0]})")
+        else:
+            problems += _unreadable(array, rows, where)
+    return problems
+
+
+def _unreadable(array: zarr.Array, rows: slice | tuple[()], where: str) -> list[str]:
+    """``[where unreadable (the error)]`` if ``array[rows]`` fails to decode, else ``[]``."""
+    try:
+        array[rows]
+    except Exception as error:  # any decoding failure: checksum, codec or shape
+        return [f"{where} unreadable ({type(error).__name__}: {error})"]
+    return []
 
 
 def scenario_of(store: RunStore) -> dict[str, Any]:

@@ -10,14 +10,14 @@ import numpy as np
 import xarray as xr
 
 
-def summarize(run: xr.Dataset, wall_seconds: float | None = None) -> str:
-    """Key numbers of a run: size, slip, events, friction levels (and throughput)."""
+def summarize(run: xr.Dataset) -> str:
+    """Key numbers of a run: size, slip, events, friction while sliding, and throughput
+    (from the wall time stored with the run)."""
     scenario = json.loads(run.attrs["scenario"])
     interface = scenario["interface"]
     mu = run.friction_coefficient.values
     slip = float(run.slider_displacement[-1] - run.slider_displacement[0])
     events = int(run.n_events[-1])
-    half = mu[mu.size // 2 :]
     lines = [
         f"contacts x blocks     {interface['n_contacts']} x {interface['blocks_per_contact']}",
         f"seed                  {run.attrs['seed']}",
@@ -25,14 +25,35 @@ def summarize(run: xr.Dataset, wall_seconds: float | None = None) -> str:
         f"slider slip           {slip * 1e6:.4g} um",
         f"block depinnings      {events:,}",
         f"friction coefficient  first {mu[0]:.4f}  peak {np.max(mu):.4f}  last {mu[-1]:.4f}",
-        f"                      mean of last half {half.mean():.4f} +- {half.std():.2g} (sd)",
+        *_sliding_friction(run, scenario["loading"]["steps"]),
         f"mean contact age      {float(run.mean_contact_age[-1]):.4g} s (last sample)",
     ]
-    if wall_seconds is not None:
-        lines.append(
-            f"wall time             {wall_seconds:.3g} s ({events / wall_seconds:.3g} events/s)"
-        )
+    wall = run.attrs.get("progress", {}).get("wall_seconds")
+    if wall:
+        lines.append(f"wall time             {wall:.3g} s ({events / wall:.3g} events/s)")
     return "\n".join(lines)
+
+
+def _sliding_friction(run: xr.Dataset, steps: list[Mapping[str, Any]]) -> list[str]:
+    """Mean and sd of the friction coefficient over the second half of each sliding
+    segment's samples (holds are left out)."""
+    time, mu = run.time.values, run.friction_coefficient.values
+    lines, start = [], 0.0
+    for number, step in enumerate(steps, 1):
+        if step.get("hold") is not None:
+            length, velocity = step["hold"], 0.0
+        else:
+            velocity = step["velocity"]
+            length = step.get("duration") or step["displacement"] / velocity
+        inside = mu[(time > start) & (time <= start + length)]
+        start += length
+        if velocity and inside.size:
+            half = inside[inside.size // 2 :]
+            lines.append(
+                f"  sliding, segment {number}  {half.mean():.4f} +- {half.std():.2g} (sd, "
+                f"last half of its samples at {velocity:.3g} m/s)"
+            )
+    return lines
 
 
 def _dotted_items(mapping: Mapping[str, Any], prefix: str = "") -> Iterator[tuple[str, Any]]:
