@@ -17,7 +17,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from importlib.resources import files
 from pathlib import Path
-from typing import Annotated, Any, NoReturn
+from typing import TYPE_CHECKING, Annotated, Any, NoReturn
 
 import click
 import typer
@@ -25,6 +25,9 @@ from typer.core import TyperGroup
 
 from nanoblock.params import Scenario, ScenarioError, load_scenario, resolve_seed
 from nanoblock.store import RunStore, StoreError
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 DEBUG = "nanoblock.debug"
 """``click.Context.meta`` key of the ``--debug`` flag."""
@@ -369,18 +372,52 @@ def info(
         typer.echo(summarize(opened))
 
 
+WINDOW = typer.Option(
+    help="fit window BEFORE,AFTER: load-point travel [m] kept before and after each step "
+    "(one run per step, parameters shared), e.g. 5e-5,3e-4"
+)
+RECIPE = typer.Option(help="xlook reduction recipe, when DATA is an xlook binary")
+ROWS = typer.Option(help="xlook rows FIRST:LAST (inclusive, after the recipe)")
+
+
+def _xlook(recipe: Path | None, rows: str | None) -> dict[str, Any]:
+    """Keyword arguments of the readers for an xlook binary (none for other files)."""
+    from nanoblock.xlook import parse_rows
+
+    return {"recipe": recipe, "rows": parse_rows(rows) if rows else None}
+
+
+def _windowed(measurement: xr.Dataset, window: str | None) -> xr.Dataset:
+    """The record cut to windows around its steps when ``--window`` is given."""
+    if window is None:
+        return measurement
+    from nanoblock.rsf.windows import parse_window, step_windows
+
+    return step_windows(measurement, *parse_window(window))
+
+
 @app.command()
 def fit(
     data: Annotated[Path, typer.Argument(help="measured data: CSV, netCDF or zarr")],
-    law: Annotated[str, typer.Option(help="RSF law (aging, slip, tabor, silicon, two_state)")] = (
-        "aging"
-    ),
+    law: Annotated[
+        str,
+        typer.Option(help="RSF law (aging, slip, aging2, slip2, cutoff, saturation, tabor, ...)"),
+    ] = "aging",
     out: Annotated[Path, typer.Option("--out", "-o", help="output directory")] = Path("fit"),
     stiffness: Annotated[
         float | None,
         typer.Option(help="stiffness per normal load K/W [1/m] (default: metadata, or fit)"),
     ] = None,
     trend: Annotated[bool, typer.Option(help="fit a linear friction trend with slip")] = False,
+    fit_stiffness: Annotated[
+        bool, typer.Option(help="fit K/W even where the metadata state it (from there)")
+    ] = False,
+    initial_state: Annotated[
+        bool, typer.Option(help="fit the initial state of each run (not in steady sliding)")
+    ] = False,
+    window: Annotated[str | None, WINDOW] = None,
+    recipe: Annotated[Path | None, RECIPE] = None,
+    rows: Annotated[str | None, ROWS] = None,
     mcmc: Annotated[bool, typer.Option(help="sample the posterior with emcee")] = False,
     mcmc_steps: Annotated[int, typer.Option(min=10, help="MCMC steps per walker")] = 2000,
 ) -> None:
@@ -397,12 +434,14 @@ def fit(
     if mcmc:
         _require_module("emcee", "--mcmc", "pip install 'nanoblock[mcmc]'")
     with _bad_input(DataError, ValueError):
-        measurement = load_measurement(data)
+        measurement = _windowed(load_measurement(data, **_xlook(recipe, rows)), window)
         result = fit_rsf(
             measurement,
             law,
             stiffness=stiffness,
             trend=trend,
+            fit_stiffness=fit_stiffness,
+            initial_state=initial_state,
             method="mcmc" if mcmc else "lsq",
             mcmc_steps=mcmc_steps,
         )
@@ -428,6 +467,9 @@ def diagnose(
     simulate: Annotated[
         bool, typer.Option(help="check the verdict with the nanoblock simulator")
     ] = True,
+    window: Annotated[str | None, WINDOW] = None,
+    recipe: Annotated[Path | None, RECIPE] = None,
+    rows: Annotated[str | None, ROWS] = None,
 ) -> None:
     """Diagnose what the base nanoblock model gets wrong on DATA, and why.
 
@@ -442,9 +484,9 @@ def diagnose(
 
     _output_directory(out)
     with _bad_input(DiagnosisError, DataError, ValueError):
-        measurement = load_for_diagnosis(data)
+        measurement = _windowed(load_for_diagnosis(data, **_xlook(recipe, rows)), window)
         result = diagnose(measurement, progress=progress, workers=workers, simulate=simulate)
-    written = write_diagnosis(result, out, data.name)
+    written = write_diagnosis(result, out, data.name, measurement)
     gain = result.gain()
     typer.echo(f"cause: {result.cause}")
     typer.echo(f"base rms {result.base.rms:.3g} vs noise {result.noise:.3g}")

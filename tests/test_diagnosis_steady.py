@@ -43,10 +43,6 @@ seed-0 tables, the base model leaves chi^2 = 3.3 (velocity_saturation) and 3.1
 (state_velocity_cutoff) over 36 rows at the generator's noise, and the true extension's
 expected delta BIC is -0.4 and -0.6 (10 needed). ``none`` is the right answer there; they
 are identified on seed 1 (m = 0.0285)."""
-FALSE_ALARM = pytest.mark.xfail(
-    reason="open: velocity_saturation with m = -0.0012 fits the noise of the seed-0 "
-    "state_velocity_cutoff table (delta BIC 15.8, held-out error 1.92e-4 against 2.41e-4)"
-)
 CASES = [
     ("none", 0, "none"),
     *[(e, 0, "none" if e in BELOW_NOISE_ON_SEED_0 else e) for e in STEADY_EFFECTS],
@@ -56,10 +52,7 @@ CASES = [
 
 @pytest.mark.parametrize(
     ("effect", "seed", "expected"),
-    [
-        pytest.param(*case, marks=FALSE_ALARM) if case[:2] == ("state_velocity_cutoff", 0) else case
-        for case in CASES
-    ],
+    CASES,
 )
 def test_each_steady_effect_is_identified(effect: str, seed: int, expected: str) -> None:
     """diagnose names the generator's effect (or none, where it is below the noise) at the

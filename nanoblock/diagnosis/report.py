@@ -10,10 +10,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import xarray as xr
 
 from nanoblock.diagnosis.catalogue import CATALOGUE
 from nanoblock.diagnosis.core import Candidate, Diagnosis
+from nanoblock.diagnosis.simulation import calibrated_scenarios
 from nanoblock.diagnosis.window_study import window_text
+from nanoblock.toml_writer import scenario_toml
 
 ABSCISSA = {
     "time_series": ("load_point_displacement", "load-point displacement (m)"),
@@ -259,8 +262,29 @@ def write_report(diagnosis: Diagnosis, source: str, figures: dict[str, Path]) ->
     return "\n".join(lines) + "\n"
 
 
-def write_diagnosis(diagnosis: Diagnosis, out: str | Path, source: str) -> dict[str, Path]:
-    """Write ``diagnosis.json``, ``report.md``, ``fits.png`` and ``residuals.png``."""
+def write_scenarios(diagnosis: Diagnosis, data: xr.Dataset, out: Path) -> dict[str, Path]:
+    """``base.toml`` and ``extended.toml``: the calibrated nanoblock interface without and
+    with the cause (or the best extension), so ``nanoblock run`` reproduces the simulation
+    check and a user can continue from it."""
+    other = diagnosis.extended or diagnosis.best
+    scenarios, note = calibrated_scenarios(
+        data, diagnosis.base.fit.params,
+        None if other is None else other.id, {} if other is None else other.fit.params,
+    )  # fmt: skip
+    written = {}
+    for name, scenario in scenarios.items():
+        what = "base model" if name == "base" else f"base model with {other.id} switched on"
+        path = out / f"{name}.toml"
+        path.write_text(scenario_toml(scenario, f"nanoblock diagnose: the {what}\n{note}"))
+        written[name] = path
+    return written
+
+
+def write_diagnosis(
+    diagnosis: Diagnosis, out: str | Path, source: str, data: xr.Dataset | None = None
+) -> dict[str, Path]:
+    """Write ``diagnosis.json``, ``report.md``, ``fits.png``, ``residuals.png`` and (given
+    the ``data``) the runnable ``base.toml`` and ``extended.toml``."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     figures = plot_diagnosis(diagnosis, out)
@@ -268,4 +292,5 @@ def write_diagnosis(diagnosis: Diagnosis, out: str | Path, source: str) -> dict[
     json_path.write_text(json.dumps(_finite(diagnosis.to_json()), indent=2) + "\n")
     report = out / "report.md"
     report.write_text(write_report(diagnosis, source, figures))
-    return {"json": json_path, "report": report, **figures}
+    scenarios = write_scenarios(diagnosis, data, out) if data is not None else {}
+    return {"json": json_path, "report": report, **figures, **scenarios}

@@ -43,7 +43,14 @@ from scipy.optimize import brentq
 from nanoblock.diagnosis.statistics import noise_level
 from nanoblock.engine import simulate
 from nanoblock.params import Scenario, from_mapping
-from nanoblock.rsf.fit import LOAD_EXPONENT, STIFFNESS, RunData, prepare_runs, reference_load
+from nanoblock.rsf.fit import (
+    LOAD_EXPONENT,
+    STIFFNESS,
+    RunData,
+    prepare_runs,
+    reference_load,
+    stiffness_scales,
+)
 from nanoblock.theory.meanfield import MeanFieldJoint, log_slope, steady_stress
 
 DC_PER_D0 = 0.5
@@ -236,6 +243,39 @@ NOT_SIMULATED = {
 }
 
 
+def calibrated_scenarios(
+    data: xr.Dataset,
+    base_params: Mapping[str, float],
+    extension: str | None,
+    extension_params: Mapping[str, float],
+) -> tuple[dict[str, Scenario], str]:
+    """The calibrated nanoblock interfaces of the first run, as ``nanoblock run`` takes
+    them: ``base`` and, where the extension has a simulator option, ``extended``; and a
+    note on the scaling (or why one is missing)."""
+    if data.attrs.get("kind") != "time_series":
+        return {}, f"{data.attrs.get('kind')} data have no runnable spring-slider scenario"
+    run = prepare_runs(data)[0]
+    factor = stiffness_scales(data, [run])[0]
+    stiffness = float(base_params[STIFFNESS]) * factor
+    temperature = float(data.attrs.get("temperature", ROOM_TEMPERATURE))
+    try:
+        base, scale = base_scenario(Targets.from_fit(base_params), run, stiffness, temperature)
+        out = {"base": base}
+        note = f"similarity scaling: every length and time x {scale:.4g} (velocities unchanged)"
+        if extension in SWITCHES:
+            plain, scales = base_scenario(
+                Targets.from_fit(extension_params), run,
+                float(extension_params.get(STIFFNESS, stiffness / factor)) * factor, temperature,
+            )  # fmt: skip
+            reference = reference_load([run.normal_force], False)
+            out["extended"] = SWITCHES[extension](plain, extension_params, scales, reference)
+        elif extension is not None:
+            note += f"; no extended scenario: {NOT_SIMULATED.get(extension, 'not simulated')}"
+    except CalibrationError as error:
+        return {}, str(error)
+    return out, note
+
+
 def _misfit(simulated: xr.Dataset, run: RunData, scale: float, data_noise: float) -> dict:
     """RMS of simulation minus data at the mapped times (levels matched), and its
     systematic part."""
@@ -300,12 +340,14 @@ def simulation_check(
             "extended": Targets.from_fit(extension_params),
         }
         misfits: dict[str, list[dict]] = {"base": [], "extended": []}
-        for run in prepared:
-            base, scale = base_scenario(targets["base"], run, stiffness, temperature, **options)
+        for run, per_run in zip(prepared, stiffness_scales(data, prepared), strict=True):
+            base, scale = base_scenario(
+                targets["base"], run, stiffness * per_run, temperature, **options
+            )
             plain, scales = base_scenario(
                 targets["extended"],
                 run,
-                float(extension_params.get(STIFFNESS, stiffness)),
+                float(extension_params.get(STIFFNESS, stiffness)) * per_run,
                 temperature,
                 **options,
             )

@@ -332,7 +332,7 @@ def fit_steady(
             return x
         (level, slope), *_ = np.linalg.lstsq(design[fitted], table.mu[fitted], rcond=None)
         out = x.copy()
-        out[[names.index("mu_r"), names.index("m")]] = level, slope / level
+        out[[names.index("mu_r"), names.index("m")]] = level, max(slope / level, 0.0)
         return out if level > 0.0 else x
 
     lower = np.full(len(names), -np.inf)
@@ -346,6 +346,8 @@ def fit_steady(
             lower[i], upper[i] = math.log(1e-4), math.log(_MAX_ELASTIC_RATIO)
         elif name == "strength_spread":
             lower[i], upper[i] = math.log(1e-4), math.log(3.0)
+        elif name == "m":  # contact area grows with age (001/Eq. 5): m >= 0
+            lower[i] = 0.0
     starts = [pack({n: s[n] for n in names}) for s in _starts(variant, table, start)]
     starts = [np.clip(x0, lower + 1e-9, upper - 1e-9) for x0 in starts]
     refit = holdout is not None  # a warm refit for held-out rows: fewer evaluations

@@ -148,6 +148,20 @@ def metadata_stiffness(data: xr.Dataset) -> float | None:
     return None
 
 
+def stiffness_scales(data: xr.Dataset, runs_: Sequence[RunData]) -> list[float]:
+    """Per-run factors on the fitted K/W: a machine stiffness K [N/m] stated in the metadata
+    (``stiffness``, not ``stiffness_per_load``) acts on each run's own load, so run i has
+    K/W_i = (K/W_mean) W_mean / W_i; 1 for every run otherwise."""
+    forces = [run.normal_force for run in runs_]
+    per_load = "stiffness_per_load" in data.attrs or "normal_force" in data.attrs
+    if "stiffness" not in data.attrs or per_load or "normal_force" not in data:
+        return [1.0] * len(forces)
+    if not all(math.isfinite(f) and f > 0.0 for f in forces):
+        return [1.0] * len(forces)
+    mean = float(data["normal_force"].mean())
+    return [mean / force for force in forces]
+
+
 @dataclass
 class FitResult:
     """Fitted parameters with standard errors (SI units), residuals and the fitted model."""
@@ -513,6 +527,7 @@ def _time_series_setup(
     else:
         params[STIFFNESS] = float(given)
     offsets = [f"{INITIAL_OFFSET}_{i}" for i in range(len(prepared))]
+    scales = stiffness_scales(data, prepared)
     if options.initial_state:
         if not lw.state_names[0].startswith("ln_"):
             raise ValueError(f"law {lw.name!r}: a fitted initial state needs an ln(theta) state")
@@ -529,14 +544,14 @@ def _time_series_setup(
 
     def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
         out = []
-        for run, offset in zip(prepared, offsets, strict=True):
+        for run, offset, scale in zip(prepared, offsets, scales, strict=True):
             law_params = _law_params(lw, values, run.normal_force, w_ref)
             start = None
             if offset in values:  # ln theta_i(0) = ln theta_ss(V(0)) + offset
                 steady = lw.steady_state(run.history.velocities[0], lw.pack(law_params))
                 start = [float(s) + values[offset] for s in steady]
             solution = solve_slider(
-                lw, law_params, run.history, run.time, values[STIFFNESS], rtol=rtol,
+                lw, law_params, run.history, run.time, values[STIFFNESS] * scale, rtol=rtol,
                 initial_state=start, max_steps=_FIT_MAX_STEPS,
             )  # fmt: skip
             out.append(solution.friction + values.get(TREND, 0.0) * run.load_point_displacement)
