@@ -28,9 +28,11 @@ def naive_slider(
     solver: str = "radau",
     rtol: float = 1e-11,
     atol: float = 1e-13,
+    initial_velocity: float | None = None,
 ) -> np.ndarray:
     """Friction at ``times`` (starting at 0) for (velocity, duration) load-point segments,
-    starting in steady state at the first velocity. ``stiffness`` is K/W [1/m]."""
+    starting in steady state at ``initial_velocity`` (default: the first segment's).
+    ``stiffness`` is K/W [1/m]."""
     mu0, a, b, dc, v0 = (params[k] for k in ("mu0", "a", "b", "dc", "v0"))
     ends = np.cumsum([d for _, d in segments])
     velocities = [v for v, _ in segments]
@@ -57,7 +59,7 @@ def naive_slider(
             dtheta = v / (v + v_theta) - v * theta / dc
         return [stiffness * (load_velocity(t) - v), dtheta]
 
-    v_start = velocities[0]
+    v_start = velocities[0] if initial_velocity is None else initial_velocity
     theta_start = dc / (v_start + v_theta)
     y0 = [mu0 + a * math.log(v_start / v0) + state_friction(theta_start), theta_start]
     if solver == "odeint":

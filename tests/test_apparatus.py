@@ -22,12 +22,15 @@ from nanoblock.rsf.apparatus import (
     solve_apparatus,
 )
 from nanoblock.rsf.laws import LAWS, law
+from tests.diagnosis_synthetic import naive_clamped
+from tests.naive_rsf import naive_slider
 from tests.test_rsf_laws import EXAMPLES
 from tests.tolerances import (
     APPARATUS_BALANCE_RTOL,
     BENT_OVER_SLOPE,
     CREEP_LOG_R2,
     CREEP_SLOPE_RTOL,
+    NAIVE_RSF_ATOL,
     PLATEAU_RTOL,
     PRINTED_RTOL,
 )
@@ -95,35 +98,77 @@ def test_solver_rejects_bad_inputs() -> None:
         solve_apparatus(silicon, SI_STEEL_2.params, SILICON, 100.0, preloaded)
 
 
-@pytest.mark.parametrize("name", sorted(LAWS))
-def test_force_balance_and_output_contract_for_every_law(name: str) -> None:
-    """000/Eqs. 9 and 14b hold at every sample; every variable carries units and a name.
+def _fig3_run(name: str, apparatus: Apparatus, normal_force: float = 300.0):
+    """The Fig. 3 ramp by ``solve_apparatus`` at 41 samples, with its protocol and start.
 
     Laws without a rest state (mu ~ ln v, ln theta) start sliding steadily at v0 = 1 um/s
-    under the preload s_ext(0) = 2 mu_ss(v0) N / c_ext, then follow the Fig. 3 ramp.
-    """
+    under the preload s_ext(0) = 2 mu_ss(v0) N / c_ext, then follow the ramp; the others
+    start at rest from a fresh contact."""
     lw, params = law(name), EXAMPLES[name]
-    normal_force = 300.0
-    protocol, initial = FIG3_PROTOCOL, None
+    protocol, initial, v0 = FIG3_PROTOCOL, None, None
     if not lw.allows_rest:
         v0 = 1e-6
         initial = [float(s) for s in lw.steady_state(v0, lw.pack(params))]
-        preload = 2.0 * normal_force * float(lw.steady_friction(v0, params)) / SILICON.c_ext
+        preload = 2.0 * normal_force * float(lw.steady_friction(v0, params)) / apparatus.c_ext
         protocol = ExtensionProtocol(FIG3_PROTOCOL.times, FIG3_PROTOCOL.extensions + preload)
-        assert protocol.extensions[0] > 0.0
     times = np.linspace(0.0, 370.0, 41)
-    ds = solve_apparatus(lw, params, SILICON, normal_force, protocol, times, initial_state=initial)
-    if not lw.allows_rest:
+    run = solve_apparatus(
+        lw, params, apparatus, normal_force, protocol, times, initial_state=initial
+    )
+    return run, protocol, v0
+
+
+@pytest.mark.parametrize("name", sorted(LAWS))
+def test_force_balance_and_output_contract_for_every_law(name: str) -> None:
+    """000/Eqs. 9 and 14b at every sample, with mu evaluated by the law at the returned
+    slip velocity and state (the solver's own mu is the elastic stress, the balance by
+    construction, so only the law's mu can fail it); every variable carries units and a
+    name."""
+    lw, normal_force = law(name), 300.0
+    ds, protocol, v0 = _fig3_run(name, SILICON, normal_force)
+    if v0 is not None:
+        assert protocol.extensions[0] > 0.0
         assert float(ds.v[0]) == pytest.approx(v0, rel=1e-9)
-    np.testing.assert_array_equal(ds.time, times)
+    np.testing.assert_array_equal(ds.time, np.linspace(0.0, 370.0, 41))
     assert set(ds.data_vars) >= {"s_ext", "s", "x", "mu", "v", *lw.state_names}
     for variable in [ds.time, *ds.data_vars.values()]:
         assert variable.attrs["units"] and variable.attrs["long_name"]
-    load = 2.0 * normal_force * ds.mu
+    p = lw.pack(EXAMPLES[name])
+    states = np.column_stack([ds[state].values for state in lw.state_names])
+    mu = [lw.friction(lw.coordinate(v, p), s, p) for v, s in zip(ds.v.values, states, strict=True)]
+    load = 2.0 * normal_force * np.array(mu)
+    residual = SILICON.c_ext * ds.s_ext.values - SILICON.c_x * ds.x.values - load
     scale = 2.0 * normal_force * SI_STEEL_2.mu_s
-    residual = SILICON.c_ext * ds.s_ext - SILICON.c_x * ds.x - load
     assert float(np.abs(residual).max()) < APPARATUS_BALANCE_RTOL * scale
-    np.testing.assert_allclose(ds.s, load / SILICON.k_s, rtol=1e-14)
+    np.testing.assert_allclose(ds.s, 2.0 * normal_force * ds.mu / SILICON.k_s, rtol=1e-14)
+
+
+@pytest.mark.parametrize("name", ["aging", "slip", "cutoff", "saturation"])
+def test_slip_matches_the_naive_spring_slider(name: str) -> None:
+    """The apparatus is a spring-slider of K/W = c_x / 2N driven at c_ext s_ext' / c_x
+    (000/Eq. 14b): its mu, hence the slip x = (c_ext s_ext - 2 mu N) / c_x, agrees with
+    the naive Radau integration in (mu, theta) (``tests/naive_rsf.py``)."""
+    normal_force = 300.0
+    ds, _, v0 = _fig3_run(name, SILICON, normal_force)
+    drive = float(FIG3_PROTOCOL.rates[0]) * SILICON.c_ext / SILICON.c_x
+    stiffness = SILICON.c_x / (2.0 * normal_force)
+    reference = naive_slider(
+        name, EXAMPLES[name], [(drive, 370.0)], ds.time.values, stiffness, initial_velocity=v0
+    )
+    np.testing.assert_allclose(ds.mu, reference, rtol=0, atol=NAIVE_RSF_ATOL)
+
+
+@pytest.mark.parametrize("name", ["silicon", "two_state"])
+def test_sample_extension_matches_the_naive_clamped_sample(name: str) -> None:
+    """From rest on the Table 1 k-values (Eqs. 12-13), s(t) agrees with the naive Radau
+    integration of 000/Eqs. 4-5, 9-14 in natural variables (``naive_clamped``), to
+    ``NAIVE_RSF_ATOL`` in mu."""
+    apparatus, normal_force = APPARATUS["silicon_from_k"], 300.0
+    ds, _, _ = _fig3_run(name, apparatus, normal_force)
+    rate = float(FIG3_PROTOCOL.rates[0])
+    reference = naive_clamped(EXAMPLES[name], normal_force, rate, ds.time.values)
+    atol = NAIVE_RSF_ATOL * 2.0 * normal_force / apparatus.k_s
+    np.testing.assert_allclose(ds.s, reference, rtol=0, atol=atol)
 
 
 def test_two_state_law_without_aging_is_the_silicon_law() -> None:

@@ -9,9 +9,11 @@ import numpy as np
 import pytest
 
 from nanoblock.measured import DataError, load_measurement
+from nanoblock.rsf.apparatus import FIG3_PROTOCOL, SURFACES
 from nanoblock.rsf.fit import LOAD_EXPONENT, STIFFNESS, TREND, fit_rsf
 from nanoblock.rsf.laws import law
 from nanoblock.rsf.report import write_fit
+from tests.diagnosis_synthetic import SILICON_APPARATUS, naive_clamped
 from tests.rsf_synthetic import NOISE, combine, random_parameters, record
 from tests.tolerances import RECOVERY_CASES, RECOVERY_MIN_COVERAGE, Z_RECOVERY
 
@@ -112,7 +114,7 @@ def test_dc_is_reported_unidentifiable_on_a_very_soft_machine() -> None:
     stiff = fit_rsf(record("aging", truth, "velocity_step", 1200.0, rng), "aging", stiffness=1200.0)
     assert stiff.stderr["dc"] < 0.05 * truth["dc"]
     soft = fit_rsf(record("aging", truth, "velocity_step", 12.0, rng), "aging", stiffness=12.0)
-    assert not soft.stderr["dc"] < soft.params["dc"]  # infinite, or wider than Dc itself
+    assert soft.stderr["dc"] >= soft.params["dc"]  # infinite, or wider than Dc itself (not NaN)
 
 
 def test_mcmc_agrees_with_least_squares() -> None:
@@ -177,27 +179,22 @@ def test_steady_state_table_gives_a_minus_b(tmp_path) -> None:
 
 
 def test_clamped_sample_curves_are_fitted_across_normal_forces(tmp_path) -> None:
-    """000/Fig. 3-like ramps at three normal forces from the Si/steel 2 parameters; the
-    silicon law's b, D_c and theta* come back within 3 standard errors."""
-    from nanoblock.rsf.apparatus import APPARATUS, FIG3_PROTOCOL, SURFACES, solve_apparatus
-
-    apparatus, surface = APPARATUS["silicon"], SURFACES["si_steel_2"]
-    truth = surface.params
+    """000/Fig. 3-like ramps at three normal forces from the Si/steel 2 parameters, made by
+    the naive Radau integration in natural variables (``naive_clamped``, Table 1 k-values),
+    not by the apparatus solver the fit uses: the silicon law's b, D_c and theta* come back
+    within Z_RECOVERY standard errors."""
+    truth = SURFACES["si_steel_2"].params
     rng = np.random.default_rng(4)
+    rate = float(FIG3_PROTOCOL.rates[0])
+    times = np.linspace(0.0, FIG3_PROTOCOL.times[-1], 150)
     rows = []
     for force in (150.0, 300.0, 450.0):
-        times = np.linspace(0.0, FIG3_PROTOCOL.times[-1], 150)
-        run = solve_apparatus(law("silicon"), truth, apparatus, force, FIG3_PROTOCOL, times)
-        noisy = run["s"].values + 1e-9 * rng.standard_normal(times.size)
-        rows += [
-            f"{t},{e},{s},{force}\n"
-            for t, e, s in zip(times, run["s_ext"].values, noisy, strict=True)
-        ]
-    header = (
-        f"# apparatus: clamped_sample\n# k_s: {apparatus.k_s}\n# c_ext: {apparatus.c_ext}\n"
-        f"# c_x: {apparatus.c_x}\ntime,s_ext,s,normal_force\n"
+        noisy = naive_clamped(truth, force, rate, times) + 1e-9 * rng.standard_normal(times.size)
+        rows += [f"{t},{rate * t},{s},{force}\n" for t, s in zip(times, noisy, strict=True)]
+    header = "".join(f"# {key}: {value}\n" for key, value in SILICON_APPARATUS.items())
+    (tmp_path / "clamped.csv").write_text(
+        f"# apparatus: clamped_sample\n{header}time,s_ext,s,normal_force\n" + "".join(rows)
     )
-    (tmp_path / "clamped.csv").write_text(header + "".join(rows))
     data = load_measurement(tmp_path / "clamped.csv")
     fixed = {k: truth[k] for k in ("a", "v_theta")}
     result = fit_rsf(data, "silicon", free=["b", "dc", "theta_star"], initial=fixed)

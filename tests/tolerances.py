@@ -33,14 +33,17 @@ EXACT_SOLUTION_RTOL = 1e-8
 """Issue 3: aging and slip laws at constant velocity vs their exact solutions."""
 
 NAIVE_RSF_ATOL = 1e-7
-"""Spring-slider (log coordinates, LSODA per segment) vs the naive odeint in (mu, theta)."""
+"""Spring-slider (log coordinates, LSODA per segment) vs the naive Radau integration in
+(mu, theta), in mu (the reference runs at rtol 1e-11; measured 6e-12 to 4e-11)."""
 
 PRINTED_RTOL = 6e-3
 """000/Table 1 prints c-values to three figures (half a unit in the last place: 0.1 % of
 4.60, 0.2 % of 2.56); Eqs. 12-13 of the printed k-values must agree to this."""
 
 APPARATUS_BALANCE_RTOL = 1e-8
-"""Apparatus: |c_ext s_ext - c_x x - 2 mu N| / (2 mu_s N) at every sample (000/Eq. 14b)."""
+"""Apparatus: |c_ext s_ext - c_x x - 2 mu(v, state) N| / (2 mu_s N) at every sample (000/Eq.
+14b), mu evaluated by the law at the returned v and state (LSODA at its tolerances: measured
+5e-15 to 1e-9); a slip 1 nm off moves it by 3e-3."""
 
 CREEP_LOG_R2 = 0.9995
 """000/Fig. 2B: R^2 of s against ln(t - t_hold) over each hold (measured 0.99985-0.99988);
