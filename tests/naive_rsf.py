@@ -16,6 +16,7 @@ import math
 
 import numpy as np
 from scipy.integrate import odeint, solve_ivp
+from scipy.optimize import least_squares
 
 
 def naive_slider(
@@ -75,3 +76,53 @@ def naive_slider(
         mu[inside] = solution.y[0, :-1]
         t0, y = end, solution.y[:, -1]
     return mu
+
+
+def renewal_fit_bias(
+    segments: list[tuple[float, float]],
+    times: np.ndarray,
+    memory_length: float,
+    aging_time: float,
+) -> tuple[float, float]:
+    """(B / B0, Dc / D0) of an aging-law fit to the mean-field renewal relaxation.
+
+    Contacts renew after exponentially distributed slip of mean D0 and carry
+    B0 ln(1 + phi/tau_m) at age phi (001/Eqs. 3, 5), so on a rigid drive through the
+    (velocity, duration) segments, from a steady start at the first velocity,
+    mu = A ln V + B0 <ln(1 + phi/tau_m)>, with <ln(1 + phi/tau_m)> = int exp(-X(phi)/D0)
+    d ln(tau_m + phi), X(phi) the slip of the last phi seconds. The aging law
+    (mu0, A, B, Dc free, imposed velocity, exact per segment) is fitted at ``times``;
+    the model is linear in A and B0, so the ratios depend on neither."""
+    v1 = segments[0][0]
+    ends = np.cumsum([d for _, d in segments])
+    starts = ends - [d for _, d in segments]
+    slip = np.concatenate([[0.0], np.cumsum([v * d for v, d in segments])])
+
+    def displacement(t: np.ndarray) -> np.ndarray:
+        i = np.clip(np.searchsorted(ends, t, side="right"), 0, len(segments) - 1)
+        velocity = np.array([v for v, _ in segments])[i]
+        return np.where(t < 0.0, v1 * t, slip[i] + velocity * (t - starts[i]))
+
+    u = np.linspace(math.log(aging_time), math.log(aging_time + 60 * memory_length / v1), 8001)
+    ages = np.exp(u) - aging_time
+    lost = displacement(times[:, None]) - displacement(times[:, None] - ages[None, :])
+    area = np.trapezoid(np.exp(-lost / memory_length), u, axis=1)
+    index = np.clip(np.searchsorted(ends, times, side="right"), 0, len(segments) - 1)
+    velocity = np.array([v for v, _ in segments])[index]
+
+    def aging(x: np.ndarray) -> np.ndarray:
+        mu0, a, b, dc = x[0], x[1], x[2], math.exp(x[3])
+        theta, boundary = [dc / v1], []
+        for v, d in segments:
+            boundary.append(theta[-1])
+            theta.append(dc / v + (theta[-1] - dc / v) * math.exp(-v * d / dc))
+        start = np.array(boundary)[index]
+        relaxed = dc / velocity + (start - dc / velocity) * np.exp(
+            -velocity * (times - starts[index]) / dc
+        )
+        return mu0 + a * np.log(velocity / v1) + b * np.log(v1 * relaxed / dc)
+
+    result = least_squares(
+        lambda x: aging(x) - area, [area[0], 0.0, 1.0, math.log(memory_length / 2)]
+    )
+    return float(result.x[2]), float(math.exp(result.x[3]) / memory_length)
