@@ -98,11 +98,11 @@ ONSET_RTOL = 0.02
 PULSATION_RTOL = 0.05
 """Oscillation pulsation at the simulated onset vs 001/Eq. 10."""
 
-JUMP_HOLDS = (100.0, 0.10)
-"""001/Eqs. 12-13: where the Eq. 13 ratio is >= 100 the spike is within 10 % of
-A ln(V2/V1). Measured (PMMA-like aging law): 2.9 % at ratio 278 (V2/V1 = 10), 4.5 % at
-356 (V2/V1 = 100), but 7.6 % at 71 and 10.8 % at 91: the slip before the peak weakens the
-state, a deficit that decays more slowly than 1/ratio."""
+JUMP_EXPANSION_EPS = 0.1
+"""001/Eqs. 12-13: the spike's asymptotic deficit (tests/test_closed_forms.spike_deficit)
+is tested where its small parameter eps = B W / (K Dc) <= 0.1 (Eq. 13 ratio >= 54 at
+V2/V1 = 10 for PMMA). Measured: within 15 % at eps = 0.076, 5 % at 0.020, 3 % at 0.005;
+the 001/Eq. 12 error is then 7.6 %, 2.9 %, 1.0 % (V2/V1 = 10)."""
 
 JUMP_FAILS = (6.0, 0.30)
 """001/Eqs. 12-13: where the Eq. 13 ratio is <= 6 the spike falls short of A ln(V2/V1) by
