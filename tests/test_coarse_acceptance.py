@@ -53,7 +53,8 @@ must be 1 within z_bound() of it (0.13; power 0.9 against a slope off by 0.18)."
 
 RATIO_SEED_SD = 0.02
 """Seed-to-seed sd of B / (m sigma_s/p) (0.855, 0.897, 0.896, 0.883 with seeds 0-3) and of
-Dc/D0 (a slope sd of 0.04 over ln D0 spread 0.98): the ratios must be the renewal
+Dc/D0 (the slope sd 0.04 times the ln D0 spread sqrt(2) ln 2 = 0.98 is 4 % of Dc, 0.02 of
+Dc/D0 ~ 0.5): the ratios must be the renewal
 prediction within z_bound(3) of it (0.072 for the three runs; power 0.9 against a
 departure of 0.097, > 0.999 against the unbiased mapping B = m sigma_s/p or Dc = D0)."""
 
