@@ -7,7 +7,9 @@ velocity looked up inside the right-hand side, v recovered from the friction law
 That usual way fails on the reload after a long hold (LSODA's error test breaks down as
 v jumps by decades in natural variables); ``solver="radau"`` (implicit Radau IIA,
 ``solve_ivp``, one call per segment, the default) survives it and is the test reference.
-Neither shares code with :mod:`nanoblock.rsf`, so agreement tests both.
+Neither shares code with :mod:`nanoblock.rsf`, so agreement tests both. Also, from
+nanoblock-free code, the aging-law fit to the mean-field renewal relaxation
+(:func:`renewal_fit_bias`), the reference for the coarse-graining's B and Dc biases.
 """
 
 from __future__ import annotations
