@@ -28,12 +28,11 @@ from nanoblock.rsf.laws import law
 from nanoblock.rsf.slider import LoadPointHistory, solve_slider
 from tests.tolerances import (
     FULL_LAW_DEPARTURE,
-    JUMP_FAILS,
-    JUMP_HOLDS,
     ONSET_RTOL,
     PULSATION_RTOL,
     SLOW_RAMP_RESIDUAL_RTOL,
     SLOW_RAMP_RTOL,
+    spike_deficit_rtol,
 )
 
 SILICON = APPARATUS["silicon"]
@@ -153,10 +152,26 @@ def jump_peak(stiffness: float, v1: float, v2: float) -> float:
     return float(solution.friction.max()) - params["mu0"]
 
 
+def spike_deficit(stiffness: float, v1: float, v2: float) -> float:
+    """1 - peak / (A ln(V2/V1)) after a load-point jump V1 -> V2, aging law, in closed form.
+
+    The peak is where v = V2. In tau = K V2 t / (W A), u = ln(v/V2) obeys
+    u' = (1 - eps r) - (1 - eps) e^u (the spring loads, the state falls at (v - V1)/Dc, its
+    healing rate held at V1/Dc), eps = B W / (K Dc), r = V1/V2, L = ln(1/r), from u = -L to
+    0; the state lost meanwhile, eps int (e^u - r) dtau, integrates to a deficit
+    eps [(1 - r) ln(1/eps) / (1 - eps) - r L] / [L (1 - eps r)]."""
+    eps = PMMA["b"] / (stiffness * PMMA["dc"])
+    r = v1 / v2
+    big_l = math.log(1 / r)
+    loss = -math.log(eps) / (1 - eps) if eps != 1.0 else 1.0
+    return eps * ((1 - r) * loss - r * big_l) / (big_l * (1 - eps * r))
+
+
 @pytest.mark.parametrize("jump", [10.0, 100.0])
 def test_velocity_jump_estimate_holds_only_when_eq13_ratio_is_large(jump: float) -> None:
-    """001/Eq. 12 is within 10 % of the simulated spike where the Eq. 13 ratio is >= 100,
-    off by > 30 % where it is <= 6, and its error shrinks as the ratio grows."""
+    """001/Eq. 12's error shrinks as the Eq. 13 ratio grows (as eps ln(1/eps), eps = B W /
+    (K Dc)), and at every stiffness it is :func:`spike_deficit` within the terms that
+    closed form neglects (:func:`~tests.tolerances.spike_deficit_rtol`)."""
     v1, v2 = 1e-6, jump * 1e-6
     estimate = velocity_jump_peak(PMMA["a"], v1, v2)
     kappa = critical_stiffness(PMMA["a"], PMMA["b"], PMMA["dc"]) * np.geomspace(1.1, 1e3, 6)
@@ -164,7 +179,8 @@ def test_velocity_jump_estimate_holds_only_when_eq13_ratio_is_large(jump: float)
     errors = np.array([1 - jump_peak(k, v1, v2) / estimate for k in kappa])
     print("Eq. 13 ratio, Eq. 12 error:", np.column_stack([ratios, errors]).round(3).tolist())
     assert np.all(np.diff(errors) < 0.0) and np.all(errors > 0.0)
-    holds, fails = ratios >= JUMP_HOLDS[0], ratios <= JUMP_FAILS[0]
-    assert holds.any() and fails.any()
-    assert np.all(errors[holds] < JUMP_HOLDS[1])
-    assert np.all(errors[fails] > JUMP_FAILS[1])
+    for k, error in zip(kappa, errors, strict=True):
+        deficit = spike_deficit(k, v1, v2)
+        state_loss = deficit * estimate / PMMA["b"]
+        print(f"K/W {k:.3g} 1/m: error {error:.4f}, closed form {deficit:.4f}")
+        assert abs(error / deficit - 1) < spike_deficit_rtol(state_loss, v1 / v2)

@@ -1,5 +1,9 @@
 """RSF fitting: parameter recovery from synthetic records made by the naive reference,
-honest errors when D_c is unidentifiable, fitted stiffness and trend, MCMC, outputs."""
+honest errors when D_c is unidentifiable, fitted stiffness and trend, MCMC, outputs.
+
+A single fixed-seed fit is checked at z_bound(k) standard errors for its k parameters
+(false alarm SIGNIFICANCE if the errors are right; power 0.9 against a bias of
+z_bound(k) + 1.28 standard errors)."""
 
 from __future__ import annotations
 
@@ -7,13 +11,26 @@ import json
 
 import numpy as np
 import pytest
+from scipy.stats import binom
 
 from nanoblock.measured import DataError, load_measurement
+from nanoblock.rsf.apparatus import FIG3_PROTOCOL, SURFACES
 from nanoblock.rsf.fit import LOAD_EXPONENT, STIFFNESS, TREND, fit_rsf
 from nanoblock.rsf.laws import law
 from nanoblock.rsf.report import write_fit
+from tests.diagnosis_synthetic import SILICON_APPARATUS, naive_clamped
 from tests.rsf_synthetic import NOISE, combine, random_parameters, record
-from tests.tolerances import RECOVERY_CASES, RECOVERY_MIN_COVERAGE, Z_RECOVERY
+from tests.tolerances import (
+    POWER,
+    RECOVERY_CASES,
+    RECOVERY_MAX_MISSES,
+    RECOVERY_MISS,
+    RECOVERY_UNDERSTATED,
+    SIGNIFICANCE,
+    Z_RECOVERY,
+    recovery_power,
+    z_bound,
+)
 
 CONTRACT = ("mu0", "a", "b", "dc")
 
@@ -42,18 +59,26 @@ def _stable_stiffness(params: dict[str, float]) -> float:
 @pytest.mark.parametrize("kind", ["velocity_step", "slide_hold_slide"])
 @pytest.mark.parametrize("name", ["aging", "slip"])
 def test_parameters_are_recovered_within_three_standard_errors(name: str, kind: str) -> None:
-    """40 random laboratory-like cases, noise 2e-4: every contract parameter within 3
-    standard errors in at least 95 % of the cases (expected ~99 % if the errors are right)."""
+    """40 random laboratory-like cases, noise 2e-4: in at most RECOVERY_MAX_MISSES (3) does
+    any contract parameter lie more than 3 standard errors from the truth. False alarm
+    9.1e-4; power 0.93 against standard errors 1.5 times too small (see
+    :func:`test_recovery_rule_has_its_stated_level_and_power`)."""
     rng = np.random.default_rng(2024 + len(name) + len(kind))
-    covered = 0
+    missed = 0
     for _ in range(RECOVERY_CASES):
         truth = random_parameters(rng)
         k = _stable_stiffness(truth)
         result = fit_rsf(record(name, truth, kind, k, rng), name, stiffness=k)
         z = _z_scores(result, truth)
-        covered += all(abs(value) < Z_RECOVERY for value in z.values())
+        missed += not all(abs(value) < Z_RECOVERY for value in z.values())
         assert result.rms_residual == pytest.approx(NOISE, rel=0.2)
-    assert covered >= RECOVERY_MIN_COVERAGE * RECOVERY_CASES
+    assert missed <= RECOVERY_MAX_MISSES
+
+
+def test_recovery_rule_has_its_stated_level_and_power() -> None:
+    """Binomial level and power of the coverage rule above, from tests/tolerances.py."""
+    assert binom.sf(RECOVERY_MAX_MISSES, RECOVERY_CASES, RECOVERY_MISS) <= SIGNIFICANCE
+    assert recovery_power(RECOVERY_UNDERSTATED) >= POWER
 
 
 def test_machine_stiffness_and_slip_trend_are_fitted_when_unknown() -> None:
@@ -64,12 +89,12 @@ def test_machine_stiffness_and_slip_trend_are_fitted_when_unknown() -> None:
     result = fit_rsf(data, "aging", trend=True)
     assert STIFFNESS in result.free and TREND in result.free
     for key, value in ((STIFFNESS, k), (TREND, trend), ("dc", truth["dc"]), ("b", truth["b"])):
-        assert abs(result.params[key] - value) < Z_RECOVERY * result.stderr[key], key
+        assert abs(result.params[key] - value) < z_bound(4) * result.stderr[key], key
 
 
 def test_load_dependent_memory_length_is_recovered() -> None:
     """Runs at 100, 200 and 400 N with D_c ~ W^0.7 (000/Fig. 3 caption): the exponent is
-    recovered within 3 standard errors and a single D_c fits worse than the noise."""
+    recovered within z_bound() standard errors and a single D_c fits worse than the noise."""
     rng = np.random.default_rng(17)
     truth = {"mu0": 0.6, "a": 0.01, "b": 0.014, "dc": 1e-5, "v0": 1e-6}
     forces, exponent, k = [100.0, 200.0, 400.0], 0.7, 3000.0
@@ -83,7 +108,7 @@ def test_load_dependent_memory_length_is_recovered() -> None:
     data = combine(parts, forces)
     extended = fit_rsf(data, "aging", stiffness=k, load_exponent=True)
     assert (
-        abs(extended.params[LOAD_EXPONENT] - exponent) < Z_RECOVERY * extended.stderr[LOAD_EXPONENT]
+        abs(extended.params[LOAD_EXPONENT] - exponent) < z_bound() * extended.stderr[LOAD_EXPONENT]
     )
     assert extended.rms_residual == pytest.approx(NOISE, rel=0.2)
     assert fit_rsf(data, "aging", stiffness=k).rms_residual > 1.5 * NOISE
@@ -100,7 +125,7 @@ def test_held_out_samples_do_not_enter_the_fit() -> None:
     result = fit_rsf(data, "aging", stiffness=2500.0, holdout=[held])
     assert result.n_points == 520
     for key in ("a", "b", "dc"):
-        assert abs(result.params[key] - truth[key]) < Z_RECOVERY * result.stderr[key], key
+        assert abs(result.params[key] - truth[key]) < z_bound(3) * result.stderr[key], key
     assert np.mean(result.residuals[0][held]) == pytest.approx(-0.05, abs=5 * NOISE)
 
 
@@ -112,7 +137,7 @@ def test_dc_is_reported_unidentifiable_on_a_very_soft_machine() -> None:
     stiff = fit_rsf(record("aging", truth, "velocity_step", 1200.0, rng), "aging", stiffness=1200.0)
     assert stiff.stderr["dc"] < 0.05 * truth["dc"]
     soft = fit_rsf(record("aging", truth, "velocity_step", 12.0, rng), "aging", stiffness=12.0)
-    assert not soft.stderr["dc"] < soft.params["dc"]  # infinite, or wider than Dc itself
+    assert soft.stderr["dc"] >= soft.params["dc"]  # infinite, or wider than Dc itself (not NaN)
 
 
 def test_mcmc_agrees_with_least_squares() -> None:
@@ -159,7 +184,7 @@ def test_bad_fit_requests_are_refused(kwargs: dict, message: str) -> None:
 
 def test_steady_state_table_gives_a_minus_b(tmp_path) -> None:
     """mu_ss(V) of the aging law, 8 velocities over 4 decades, noise 2e-4: with a held at
-    its true value, b is recovered within 3 standard errors; D_c is not fitted."""
+    its true value, b is recovered within z_bound() standard errors; D_c is not fitted."""
     rng = np.random.default_rng(9)
     velocity = np.logspace(-8, -4, 8)
     mu = 0.6 + (0.010 - 0.013) * np.log(velocity / 1e-6) + NOISE * rng.standard_normal(8)
@@ -170,37 +195,32 @@ def test_steady_state_table_gives_a_minus_b(tmp_path) -> None:
     data = load_measurement(tmp_path / "steady.csv")
     result = fit_rsf(data, "aging", initial={"a": 0.010})
     assert result.free == ("mu0", "b")
-    assert abs(result.params["b"] - 0.013) < Z_RECOVERY * result.stderr["b"]
+    assert abs(result.params["b"] - 0.013) < z_bound() * result.stderr["b"]
     one_velocity = data.isel(sample=[0, 0])
     with pytest.raises(DataError, match="at least two distinct velocities"):
         fit_rsf(one_velocity, "aging")
 
 
 def test_clamped_sample_curves_are_fitted_across_normal_forces(tmp_path) -> None:
-    """000/Fig. 3-like ramps at three normal forces from the Si/steel 2 parameters; the
-    silicon law's b, D_c and theta* come back within 3 standard errors."""
-    from nanoblock.rsf.apparatus import APPARATUS, FIG3_PROTOCOL, SURFACES, solve_apparatus
-
-    apparatus, surface = APPARATUS["silicon"], SURFACES["si_steel_2"]
-    truth = surface.params
+    """000/Fig. 3-like ramps at three normal forces from the Si/steel 2 parameters, made by
+    the naive Radau integration in natural variables (``naive_clamped``, Table 1 k-values),
+    not by the apparatus solver the fit uses: the silicon law's b, D_c and theta* come back
+    within z_bound(3) standard errors."""
+    truth = SURFACES["si_steel_2"].params
     rng = np.random.default_rng(4)
+    rate = float(FIG3_PROTOCOL.rates[0])
+    times = np.linspace(0.0, FIG3_PROTOCOL.times[-1], 150)
     rows = []
     for force in (150.0, 300.0, 450.0):
-        times = np.linspace(0.0, FIG3_PROTOCOL.times[-1], 150)
-        run = solve_apparatus(law("silicon"), truth, apparatus, force, FIG3_PROTOCOL, times)
-        noisy = run["s"].values + 1e-9 * rng.standard_normal(times.size)
-        rows += [
-            f"{t},{e},{s},{force}\n"
-            for t, e, s in zip(times, run["s_ext"].values, noisy, strict=True)
-        ]
-    header = (
-        f"# apparatus: clamped_sample\n# k_s: {apparatus.k_s}\n# c_ext: {apparatus.c_ext}\n"
-        f"# c_x: {apparatus.c_x}\ntime,s_ext,s,normal_force\n"
+        noisy = naive_clamped(truth, force, rate, times) + 1e-9 * rng.standard_normal(times.size)
+        rows += [f"{t},{rate * t},{s},{force}\n" for t, s in zip(times, noisy, strict=True)]
+    header = "".join(f"# {key}: {value}\n" for key, value in SILICON_APPARATUS.items())
+    (tmp_path / "clamped.csv").write_text(
+        f"# apparatus: clamped_sample\n{header}time,s_ext,s,normal_force\n" + "".join(rows)
     )
-    (tmp_path / "clamped.csv").write_text(header + "".join(rows))
     data = load_measurement(tmp_path / "clamped.csv")
     fixed = {k: truth[k] for k in ("a", "v_theta")}
     result = fit_rsf(data, "silicon", free=["b", "dc", "theta_star"], initial=fixed)
     for key in ("b", "dc", "theta_star"):
-        assert abs(result.params[key] - truth[key]) < Z_RECOVERY * result.stderr[key], key
+        assert abs(result.params[key] - truth[key]) < z_bound(3) * result.stderr[key], key
     assert result.rms_residual == pytest.approx(1e-9, rel=0.3)

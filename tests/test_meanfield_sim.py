@@ -50,7 +50,8 @@ def steady_run(velocity: float, seed: int = 11, snapshot_every: int = 0, n_conta
 
 
 def measured_stress(result) -> tuple[float, float]:
-    """Mean block stress after burn-in [Pa] and its standard error (batch means)."""
+    """Mean block stress after burn-in [Pa] and its standard error sd / sqrt(n) (samples
+    SPACING rho~_max apart taken as independent)."""
     stress = (result.friction_force / result.real_contact_area).values[int(BURN_IN / SPACING) + 1 :]
     return float(stress.mean()), float(stress.std(ddof=1) / np.sqrt(stress.size))
 

@@ -111,7 +111,7 @@ def test_steady_friction_closed_forms() -> None:
     ids=["velocity_step", "slide_hold_slide"],
 )
 def test_spring_slider_matches_naive_reference(name: str, segments: list) -> None:
-    """Log-coordinate LSODA per segment vs odeint in (mu, theta) over the whole record."""
+    """Log-coordinate LSODA per segment vs the naive Radau integration in (mu, theta)."""
     times = np.linspace(0.0, sum(d for _, d in segments), 3001)
     k = 2e3
     history = LoadPointHistory.from_segments(segments)
