@@ -27,7 +27,6 @@ from tests.diagnosis_synthetic import (
 from tests.rsf_synthetic import record, write_csv
 
 PHYSICS = Path(__file__).resolve().parents[2] / "shared" / "physics.md"
-SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 CONTRACT = {"cause", "ranking", "base", "extended", "gain", "simulation_check"}
 
 
@@ -195,22 +194,11 @@ def test_silicon_fig3_with_load_dependent_memory_length(tmp_path: Path) -> None:
     assert gain["heldout_error_ratio"] > 1.2 and gain["delta_information_criterion"] > 10
 
 
-@pytest.mark.battery
 @pytest.mark.parametrize("effect", ["none", "aging_rate"])
 def test_effect_free_and_effect_time_series(effect: str) -> None:
+    """One time series without and one with an effect (4-12 s each)."""
     rng = np.random.default_rng(8)
     assert diagnose(time_series_case(effect, rng, NOISE["time_series"])).cause == effect
-
-
-@pytest.mark.battery
-@pytest.mark.skipif(not SHARED_DATA.is_dir(), reason=f"laboratory data absent ({SHARED_DATA})")
-def test_laboratory_velocity_step_is_diagnosed(tmp_path: Path) -> None:
-    """A real velocity step: the diagnosis runs, estimates the noise from the data, and
-    does not claim the base model fits within noise (lab residuals are correlated)."""
-    data = load_for_diagnosis(SHARED_DATA / "p655_100MPa_vstep_2p3to23.csv")
-    result = diagnose(data)
-    assert result.cause != "none"
-    assert 0 < result.noise < result.base.rms
 
 
 def test_calibrated_threshold_inverts_the_exact_slope() -> None:
