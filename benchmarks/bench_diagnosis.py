@@ -100,6 +100,31 @@ def main() -> None:
     }
     path = ROOT / "benchmarks" / "results_diagnosis.json"
     path.write_text(json.dumps(out, indent=2, default=float) + "\n")
+    print(markdown(results))
+
+
+def markdown(results: dict) -> str:
+    """The README's laboratory table."""
+    lines = [
+        "| record | samples | verdict | forecast ratio | variance explained | noise floor / white "
+        "| D_c growth with window | seconds |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, entry in results.items():
+        if name.startswith("synthetic"):
+            continue
+        gain, noise = entry["gain"], entry["noise_model"]
+        ratio = gain["heldout_error_ratio"]
+        shown = "-" if entry["cause"] == "unstable_sliding" or ratio is None else f"{ratio:.2f}"
+        explained, growth = gain["variance_explained"], entry["dc_growth"]
+        lines.append(
+            f"| {name.removesuffix('.csv')} | {entry['samples']} | {entry['cause']} | {shown} | "
+            f"{'-' if explained is None else f'{100 * explained:.0f} %'} | "
+            f"{noise['floor'] / noise['white']:.1f} | "
+            f"{'-' if growth is None else f'{growth:.1f}x'} | "
+            f"{entry['seconds']:.0f} |"
+        )
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":
