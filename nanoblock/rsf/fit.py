@@ -8,8 +8,10 @@ laboratory fitting tools offer). Free parameters are fitted by nonlinear least s
 lengths, velocities and the stiffness). Standard errors come from the Jacobian at the
 optimum, s^2 (J^T J)^-1 with s^2 the residual variance, computed by SVD so that an
 unidentifiable direction (e.g. D_c on a very soft machine) gets an infinite error
-instead of a spuriously tight one. An optional MCMC mode (``emcee``) samples the
-posterior with flat priors in the scaled space.
+instead of a spuriously tight one; s^2 is inflated by (1 + phi) / (1 - phi), phi the
+lag-1 autocorrelation of the residuals, since correlated residuals (real records: phi =
+0.8-0.98) carry fewer independent samples than they count. An optional MCMC mode
+(``emcee``) samples the posterior with flat priors in the scaled space.
 """
 
 from __future__ import annotations
@@ -63,6 +65,8 @@ _START_GRID = {
 """Shifts of the starting point (scaled space: ln for dc, d0, theta* and K/W; additive for a),
 evaluated once each; the best ``_REFINED_STARTS`` are refined."""
 _REFINED_STARTS = 2
+MAX_LAG1 = 0.99
+"""Largest residual autocorrelation used to inflate standard errors."""
 _FIT_MAX_STEPS = 5_000
 """LSODA steps per output interval during fits: pathological trial parameters fail fast."""
 
@@ -183,6 +187,9 @@ class FitResult:
     """What to plot the runs against (load-point displacement, s_ext or velocity)."""
     abscissa_label: str
     observed_label: str
+    residual_lag1: float = 0.0
+    """Lag-1 autocorrelation of the residuals (clipped to [0, MAX_LAG1]); the standard
+    errors are inflated by sqrt((1 + phi) / (1 - phi)), the AR(1) effective-size factor."""
 
     def to_json(self) -> dict:
         """The ``fit.json`` contract: law, params (mu0, a, b, dc and the law's own), stderr,
@@ -199,6 +206,7 @@ class FitResult:
             "stderr": {k: clean(v) for k, v in stderr.items()},
             "rms_residual": self.rms_residual,
             "n_points": self.n_points,
+            "residual_lag1": self.residual_lag1,
             "method": self.method,
             "free": list(self.free),
             "reference_velocity": self.reference_velocity,
@@ -740,6 +748,37 @@ def fit_rsf(
     return _solve(lw, setup, method, mcmc_steps, seed, search)
 
 
+def _ordered(
+    problem: _Problem, x: FloatArray, jacobian: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """The mirror image of an optimum of an exchangeable law (two state variables with
+    the memory lengths in the wrong order), with the Jacobian's columns swapped alike."""
+    pairs = problem.law.exchangeable
+    names = problem.free
+    if not pairs or not all(n in names for pair in pairs for n in pair):
+        return x, jacobian
+    params = problem.unpack(x)
+    short, long = pairs[-1]
+    if params[long] >= params[short]:
+        return x, jacobian
+    order = list(range(len(names)))
+    for first, second in pairs:
+        i, j = names.index(first), names.index(second)
+        order[i], order[j] = j, i
+    return x[order], jacobian[:, order]
+
+
+def _residual_lag1(problem: _Problem, residual: FloatArray) -> float:
+    """Lag-1 autocorrelation of the fitted residuals within runs, clipped to
+    [0, MAX_LAG1] (residuals of a record with held-out samples are taken as one series)."""
+    sizes = [y.size for y in problem.observed] if problem.fitted is None else [residual.size]
+    parts = np.split(residual, np.cumsum(sizes)[:-1]) if sum(sizes) == residual.size else [residual]
+    products = sum(float(r[1:] @ r[:-1]) for r in parts)
+    squares = float(residual @ residual)
+    phi = products / squares if squares > 0.0 else 0.0
+    return min(max(phi, 0.0), MAX_LAG1)
+
+
 def _solve(
     lw: Law,
     setup: _Setup,
@@ -776,12 +815,14 @@ def _solve(
             problem.residuals, coarse.x, args=(1e-10,), method="trf", x_scale="jac",
             diff_step=_DIFF_STEP, max_nfev=100, bounds=bounds,
         )  # fmt: skip
-    x = fine.x
+    x, jacobian = _ordered(problem, fine.x, fine.jac)
     residual = fine.fun
     n = residual.size
     dof = max(n - x.size, 1)
-    variance = float(residual @ residual) / dof
-    covariance = parameter_covariance(fine.jac, variance)
+    lag1 = _residual_lag1(problem, residual)
+    inflation = (1.0 + lag1) / (1.0 - lag1)
+    variance = float(residual @ residual) / dof * inflation
+    covariance = parameter_covariance(jacobian, variance)
     if method == "mcmc":
         x, covariance = _mcmc(problem, x, covariance, variance, mcmc_steps, seed)
         residual = problem.residuals(x, 1e-10)
@@ -797,6 +838,7 @@ def _solve(
         contract_stderr=_contract_errors(problem, x, covariance, v0),
         rms_residual=float(np.sqrt(np.mean(residual**2))) * problem.scale,
         n_points=n,
+        residual_lag1=lag1,
         method=method,
         reference_velocity=v0,
         model=models,

@@ -51,6 +51,9 @@ class Law:
     state_names: tuple[str, ...]
     default_free: tuple[str, ...]
     defaults: Mapping[str, float] = field(default_factory=dict)
+    exchangeable: tuple[tuple[str, str], ...] = ()
+    """Parameter pairs the law is symmetric under, ordered so that the second memory length
+    (the last pair) is the longer one: a fit that lands on the mirror image is swapped."""
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -414,6 +417,7 @@ LAWS: dict[str, Law] = {
             _TWO_STATE_PARAMETERS,
             ("ln_theta1", "ln_theta2"),
             ("mu0", "a", "b", "dc", "b2", "dc2"),
+            exchangeable=(("b", "b2"), ("dc", "dc2")),
         ),
         TwoStateSlipLaw(
             "slip2",
@@ -421,6 +425,7 @@ LAWS: dict[str, Law] = {
             _TWO_STATE_PARAMETERS,
             ("ln_theta1", "ln_theta2"),
             ("mu0", "a", "b", "dc", "b2", "dc2"),
+            exchangeable=(("b", "b2"), ("dc", "dc2")),
         ),
         CutoffLaw(
             "cutoff",
