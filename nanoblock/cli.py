@@ -19,28 +19,29 @@ from importlib.resources import files
 from pathlib import Path
 from typing import Annotated, Any, NoReturn
 
-import click
 import typer
 from typer.core import TyperGroup
+from typer.exceptions import TyperException
 
 from nanoblock.params import Scenario, ScenarioError, load_scenario, resolve_seed
 from nanoblock.store import RunStore, StoreError
 
 DEBUG = "nanoblock.debug"
-"""``click.Context.meta`` key of the ``--debug`` flag."""
+"""``typer.Context.meta`` key of the ``--debug`` flag."""
 
 STAMP = "nanoblock-store"
-"""PNG text key naming the run store a figure was drawn from (its absolute path)."""
+"""PNG text key naming the run store a figure was drawn from (its path relative to the
+figure's directory, so that the two may move together)."""
 
 
 class _OneMessage(TyperGroup):
     """Turn an unexpected error into one line on stderr and exit code 2 (with
     ``--debug``, the traceback)."""
 
-    def invoke(self, ctx: click.Context) -> Any:
+    def invoke(self, ctx: typer.Context) -> Any:
         try:
             return super().invoke(ctx)
-        except (typer.Exit, typer.Abort, click.exceptions.Exit, click.ClickException):
+        except (typer.Exit, typer.Abort, TyperException):  # typer reports these itself
             raise
         except Exception as error:
             if ctx.meta.get(DEBUG):
@@ -157,9 +158,14 @@ def _drawn_of(png: Path, store: Path) -> bool:
 
     try:
         with Image.open(png) as image:
-            return getattr(image, "text", {}).get(STAMP) == str(store.resolve())
+            return getattr(image, "text", {}).get(STAMP) == _stamp(png, store)
     except (OSError, ValueError):
         return False
+
+
+def _stamp(png: Path, store: Path) -> str:
+    """The :data:`STAMP` of a figure ``png`` drawn of ``store``."""
+    return os.path.relpath(store.resolve(), png.parent.resolve())
 
 
 def _place_figure(rendered: Path, target: Path, store: Path) -> Path:
@@ -171,7 +177,7 @@ def _place_figure(rendered: Path, target: Path, store: Path) -> Path:
     with Image.open(rendered) as image:
         for key, value in image.text.items():
             info.add_text(key, value)
-        info.add_text(STAMP, str(store.resolve()))
+        info.add_text(STAMP, _stamp(target, store))
         image.save(partial, format="PNG", pnginfo=info)
     os.replace(partial, target)
     return target

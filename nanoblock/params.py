@@ -53,9 +53,10 @@ U_MAX = 700.0
 """Largest reduced barrier u = U_a / k_B T: exp(-u) underflows in double precision near
 745, and above ~700 the blocks never depin thermally (only athermally at sigma_a)."""
 
-MAX_EVENTS_PER_SAMPLE = 1e9
-"""Most block depinnings expected between two stored samples (~1 min of work at the
-engine's throughput); more means a run that does not finish in practice."""
+MAX_EVENTS_PER_SAMPLE = 1e8
+"""Most block depinnings expected between two stored samples (10-100 s of work at the
+engine's throughput, 1e6-1e7 per second); more means a run that does not finish in
+practice, or blocks that are not pinned at all."""
 
 MAX_EVENTS = 1e12
 """Most block depinnings expected over a whole run (about a day of work)."""
@@ -122,7 +123,7 @@ class Joint(_Section):
     temperature: Positive = Field(description="temperature T [K]")
     barrier: Literal[tuple(BARRIERS)] = Field("persson", description="barrier law")  # type: ignore[valid-type]
     slip: Literal["chain", "reset"] = Field("chain", description="slip rule")
-    back_jumps: bool = Field(False, description="reverse hops in detailed balance")
+    back_jumps: bool = Field(False, strict=True, description="reverse hops in detailed balance")
     threshold_spread: NonNegative = Field(
         0.0, description="log-standard deviation of sigma_a across contacts"
     )
@@ -171,11 +172,16 @@ class Joint(_Section):
         """Refuse a barrier so high (cold joint, strong threshold) that nothing depins."""
         if self.u > U_MAX:
             coldest = self.u * self.temperature / U_MAX
+            allowed = (
+                f"temperature >= {coldest:.4g} K"
+                if math.isfinite(coldest)
+                else "a smaller threshold_stress or block_size, or a larger shear_modulus"
+            )
             raise ValueError(
                 f"at {self.temperature:.4g} K the blocks never depin thermally: "
-                f"u = U_a / k_B T = {self.u:.4g} exceeds {U_MAX:g} (exp(-u) underflows); "
-                f"allowed for this joint (threshold_stress, block_size, shear_modulus): "
-                f"temperature >= {coldest:.4g} K"
+                f"u = U_a / k_B T = {self.u:.4g} exceeds {U_MAX:g} (U_a from "
+                f"threshold_stress = {self.threshold_stress:.4g} Pa, block_size, "
+                f"shear_modulus); allowed for this joint: {allowed}"
             )
 
     def _soften(self) -> None:
@@ -509,13 +515,12 @@ def _format_errors(error: ValidationError, source: str) -> str:
 
 def _allowed_range(ctx: dict[str, Any]) -> str:
     low, high = ctx.get("gt", ctx.get("ge")), ctx.get("lt", ctx.get("le"))
-    if low is None and high is None:
+    if high is not None:
+        return f" (allowed: {'at most' if 'le' in ctx else 'below'} {high})"
+    if low is None:
         return ""
-    left = "[" if "ge" in ctx else "("
-    right = "]" if "le" in ctx else ")"
-    low = "-inf" if low is None else low
-    high = "inf" if high is None else high
-    return f" (allowed range {left}{low}, {high}{right})"
+    bracket = "(" if "gt" in ctx else "["
+    return f" (allowed range {bracket}{low}, inf))"
 
 
 def from_mapping(data: dict[str, Any], source: str = "scenario") -> Scenario:
