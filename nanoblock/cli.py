@@ -206,8 +206,14 @@ def _announce_resume(out: Path) -> None:
     store = RunStore(out)
     if not store.exists() or store.attrs.get("complete"):
         return
+    last = store.attrs.get("checkpoint", {})
     checkpoint = store.read_checkpoint()
     at = checkpoint[1] if checkpoint else {"samples": 0, "simulated_time": 0.0}
+    if checkpoint and at["samples"] != last["samples"]:
+        typer.echo(
+            f"the checkpoint at sample {last['samples']} is damaged "
+            f"({'; '.join(store.checkpoint_damage(last['slot']))}): using the one before"
+        )
     typer.echo(f"resuming {out} from sample {at['samples']} (t = {at['simulated_time']} s)")
 
 
