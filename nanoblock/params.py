@@ -13,6 +13,8 @@ import json
 import math
 import os
 import tomllib
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal, Self
@@ -69,6 +71,19 @@ JOINT_DENSITY = 1.0e3
 
 STRENGTH_CLASSES = 8
 """Default number of strength classes when ``joint.threshold_spread`` > 0."""
+
+
+@contextmanager
+def _representable(values: dict[str, Any]) -> Iterator[None]:
+    """Refuse ``values`` whose derived quantities over- or underflow double precision."""
+    try:
+        yield
+    except ArithmeticError as error:
+        shown = ", ".join(f"{key} = {value!r}" for key, value in values.items())
+        raise ValueError(
+            f"{shown}: derived quantities leave double precision ({error}); use values "
+            "within physical ranges"
+        ) from None
 
 
 class ScenarioError(ValueError):
@@ -139,6 +154,11 @@ class Joint(_Section):
 
     @model_validator(mode="after")
     def _resolve(self) -> Self:
+        keys = ("block_size", "shear_modulus", "threshold_stress", "temperature", "k1")
+        with _representable({key: getattr(self, key) for key in keys}):
+            return self._derive()
+
+    def _derive(self) -> Self:
         self._soften()
         b, e_j = self.block_size, self.shear_modulus
         k1 = self.k1 if self.k1 is not None else e_j * b
@@ -388,7 +408,11 @@ class Scenario(_Section):
     @model_validator(mode="after")
     def _feasible(self) -> Self:
         """Refuse, before anything is allocated, a run this machine cannot hold or finish."""
-        needs = requirements(self)
+        joint = self.joint
+        with _representable(
+            {"joint.rho_max (threshold_stress b^2 / k1)": joint.rho_max, "joint.u": joint.u}
+        ):
+            needs = requirements(self)
         run, interface = self.run, self.interface
         if needs.samples > MAX_SAMPLES:
             raise ValueError(
