@@ -23,7 +23,13 @@ import typer
 from typer.core import TyperGroup
 from typer.exceptions import TyperException
 
-from nanoblock.params import Scenario, ScenarioError, load_scenario, resolve_seed
+from nanoblock.params import (
+    Scenario,
+    ScenarioError,
+    check_feasible,
+    load_scenario,
+    resolve_seed,
+)
 from nanoblock.store import RunStore, StoreError
 
 DEBUG = "nanoblock.debug"
@@ -252,6 +258,7 @@ def run(
     png = figure or out.with_suffix(".png")
     with _bad_input():
         parsed = resolve_seed(load_scenario(path), seed)
+        check_feasible(parsed, str(path))
         _output_directory(out.parent)
         _claim_store(out, parsed)
         _claim_file(png, out, "--figure")
@@ -307,6 +314,8 @@ def sweep(
     _output_directory(out)
     with _bad_input(SweepError):
         spec = Sweep.from_file(scenario, assignments or [], seeds)
+        for task in spec.tasks():
+            check_feasible(task.scenario, f"{scenario}, task {task.name} {task.params}")
         report = run_sweep(
             spec,
             out,

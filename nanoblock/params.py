@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import numbers
 import os
 import tomllib
 from collections.abc import Iterator
@@ -37,19 +38,19 @@ from nanoblock.barriers import (
 )
 
 
-def _not_bool(value: Any) -> Any:
-    """Refuse a boolean where a number is expected (``temperature = true`` is not 1 K)."""
-    if isinstance(value, bool):
-        raise ValueError("a boolean is not a number")
+def _number(value: Any) -> Any:
+    """Refuse anything but a number where an integer is expected (``true``, ``"4"``)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(f"an integer is required, not a {type(value).__name__}")
     return value
 
 
-# Floats are strict (no booleans, no strings; integers are accepted); integers refuse
-# booleans but accept numpy integers.
+# Floats are strict (no booleans, no strings; integers are accepted); integers take
+# numbers only (numpy integers too; 2.0 is 2, 2.5 is refused).
 Positive = Annotated[float, Field(gt=0, allow_inf_nan=False, strict=True)]
 NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False, strict=True)]
 PositiveOrInf = Annotated[float, Field(gt=0, strict=True)]  # +inf allowed, NaN is not
-Count = Annotated[int, BeforeValidator(_not_bool)]
+Count = Annotated[int, BeforeValidator(_number)]
 
 U_MAX = 700.0
 """Largest reduced barrier u = U_a / k_B T: exp(-u) underflows in double precision near
@@ -179,6 +180,8 @@ class Joint(_Section):
             ("damping", damping),
             ("attempt_frequency", omega),
         ):
+            if not (math.isfinite(value) and (value > 0 or name == "k2")):
+                raise ArithmeticError(f"{name} would be {value}")
             object.__setattr__(self, name, float(value))
         if self.strength_classes is None:
             classes = STRENGTH_CLASSES if self.threshold_spread > 0.0 else 1
@@ -405,49 +408,6 @@ class Scenario(_Section):
             )
         return self
 
-    @model_validator(mode="after")
-    def _feasible(self) -> Self:
-        """Refuse, before anything is allocated, a run this machine cannot hold or finish."""
-        joint = self.joint
-        with _representable(
-            {"joint.rho_max (threshold_stress b^2 / k1)": joint.rho_max, "joint.u": joint.u}
-        ):
-            needs = requirements(self)
-        run, interface = self.run, self.interface
-        if needs.samples > MAX_SAMPLES:
-            raise ValueError(
-                f"run.record_every = {run.record_every!r} s over the protocol's "
-                f"{self.total_time:.4g} s would store {needs.samples:.3g} samples; at most "
-                f"{MAX_SAMPLES:.0e} are allowed (record_every >= "
-                f"{self.total_time / MAX_SAMPLES:.3g} s)"
-            )
-        available = physical_memory()
-        if needs.memory > available:
-            raise ValueError(
-                f"interface.n_contacts = {interface.n_contacts} x "
-                f"interface.blocks_per_contact = {interface.blocks_per_contact} = "
-                f"{needs.blocks:.3g} blocks and {needs.samples:.3g} samples would need "
-                f"{needs.memory / 1e9:.3g} GB of memory; this machine has "
-                f"{available / 1e9:.3g} GB"
-            )
-        if needs.events_per_sample > MAX_EVENTS_PER_SAMPLE:
-            joint = self.joint
-            raise ValueError(
-                f"the {needs.blocks:.3g} blocks would depin ~{needs.events_per_sample:.3g} "
-                f"times per sample (run.record_every = {run.record_every!r} s): at "
-                f"{joint.temperature:.4g} K they hop over their barrier without load "
-                f"(u = {joint.u:.4g}: {needs.thermal_rate:.3g} /s per block) and sliding "
-                f"moves each across rho~_max {needs.driven_rate:.3g} times per s; at most "
-                f"{MAX_EVENTS_PER_SAMPLE:.0e} per sample are allowed: lower "
-                "joint.temperature, run.record_every or the number of blocks"
-            )
-        if needs.events > MAX_EVENTS:
-            raise ValueError(
-                f"the run would take ~{needs.events:.3g} block depinnings (days of work); "
-                f"at most {MAX_EVENTS:.0e} are allowed: fewer blocks or a shorter protocol"
-            )
-        return self
-
     @property
     def total_time(self) -> float:
         """Duration of the whole protocol [s]."""
@@ -511,6 +471,57 @@ def requirements(scenario: Scenario) -> Requirements:
     per_sample = blocks * run.record_every * (thermal + driven)
     events = blocks * (thermal * scenario.total_time + travel / joint.rho_max)
     return Requirements(samples, blocks, memory, thermal, driven, per_sample, events)
+
+
+def check_feasible(scenario: Scenario, source: str = "scenario") -> None:
+    """Refuse, before anything is allocated, a run of ``scenario`` that this machine
+    cannot hold (samples, memory) or finish (expected depinnings per sample and in all):
+    ScenarioError naming the keys, what the run would need and what is allowed."""
+    try:
+        _feasible(scenario)
+    except ValueError as error:
+        raise ScenarioError(f"{source}: cannot run: {error}") from None
+
+
+def _feasible(scenario: Scenario) -> None:
+    """ValueError naming what ``scenario`` would need, if more than is allowed."""
+    joint = scenario.joint
+    with _representable(
+        {"joint.rho_max (threshold_stress b^2 / k1)": joint.rho_max, "joint.u": joint.u}
+    ):
+        needs = requirements(scenario)
+    run, interface = scenario.run, scenario.interface
+    if needs.samples > MAX_SAMPLES:
+        raise ValueError(
+            f"run.record_every = {run.record_every!r} s over the protocol's "
+            f"{scenario.total_time:.4g} s would store {needs.samples:.3g} samples; at most "
+            f"{MAX_SAMPLES:.0e} are allowed (record_every >= "
+            f"{scenario.total_time / MAX_SAMPLES:.3g} s)"
+        )
+    available = physical_memory()
+    if needs.memory > available:
+        raise ValueError(
+            f"interface.n_contacts = {interface.n_contacts} x "
+            f"interface.blocks_per_contact = {interface.blocks_per_contact} = "
+            f"{needs.blocks:.3g} blocks and {needs.samples:.3g} samples would need "
+            f"{needs.memory / 1e9:.3g} GB of memory; this machine has "
+            f"{available / 1e9:.3g} GB"
+        )
+    if needs.events_per_sample > MAX_EVENTS_PER_SAMPLE:
+        raise ValueError(
+            f"the {needs.blocks:.3g} blocks would depin ~{needs.events_per_sample:.3g} "
+            f"times per sample (run.record_every = {run.record_every!r} s): at "
+            f"{joint.temperature:.4g} K they hop over their barrier without load "
+            f"(u = {joint.u:.4g}: {needs.thermal_rate:.3g} /s per block) and sliding "
+            f"moves each across rho~_max {needs.driven_rate:.3g} times per s; at most "
+            f"{MAX_EVENTS_PER_SAMPLE:.0e} per sample are allowed: lower "
+            "joint.temperature, run.record_every or the number of blocks"
+        )
+    if needs.events > MAX_EVENTS:
+        raise ValueError(
+            f"the run would take ~{needs.events:.3g} block depinnings (days of work); "
+            f"at most {MAX_EVENTS:.0e} are allowed: fewer blocks or a shorter protocol"
+        )
 
 
 def physical_memory() -> float:

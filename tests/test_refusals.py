@@ -130,7 +130,7 @@ SCENARIO_EDITS = [
     ),
     ("n_contacts = 4", "n_contacts = 0", ["interface.n_contacts", "= 0"]),
     ("n_contacts = 4", "n_contacts = 2.5", ["interface.n_contacts", "2.5"]),
-    ("n_contacts = 4", "n_contacts = true", ["interface.n_contacts", "boolean"]),
+    ("n_contacts = 4", "n_contacts = true", ["interface.n_contacts", "not a bool"]),
     (
         "n_contacts = 4\nblocks_per_contact = 10",
         "n_contacts = 1000000000\nblocks_per_contact = 1000000000",
@@ -180,7 +180,7 @@ def test_a_hot_joint_whose_blocks_hop_without_load_is_refused(tmp_path) -> None:
         "n_contacts = 4", "n_contacts = 400"
     )
     args = ["run", str(scenario_file(tmp_path, text)), "--out", str(tmp_path / "x.zarr")]
-    refused(tmp_path, args, "3000 K", "per sample", "u = 5.02", "without load")
+    refused(tmp_path, args, "bad.toml: cannot run", "3000 K", "u = 5.02", "without load")
 
 
 def test_scenario_that_is_not_text_is_refused(tmp_path) -> None:
@@ -345,3 +345,9 @@ def test_damaged_stores_are_reported_by_array_and_range(work, damage, command) -
     if command == "run":
         args = ["run", str(work / "tiny.toml"), "--out", str(work / "run.zarr"), "-q"]
     refused(work, args, "run.zarr", "damaged", NAMED[damage], word)
+
+
+def test_a_sweep_point_that_cannot_run_is_refused_before_any_task(tmp_path) -> None:
+    args = ["sweep", _tiny(tmp_path), "--set", "joint.temperature=300,3000"]
+    args += ["--set", "interface.n_contacts=400", "--out", str(tmp_path / "s")]
+    refused(tmp_path, args, "tiny.toml, task 0001", "3000 K", "per sample")
