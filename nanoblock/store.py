@@ -299,13 +299,15 @@ class RunStore:
             n_samples = int(pointer["samples"]) if unfinished else None
             n_snapshots = int(pointer.get("snapshots", 0)) if unfinished else None
         group = zarr.open_group(self.path, mode="r")
+        checked = self.path if attrs.get("integrity") == INTEGRITY else None
         with warnings.catch_warnings():  # a folder without zarr.json: reported as missing
             warnings.simplefilter("ignore", UserWarning)
             present = set(group.array_keys())
-        problems = [f"{name}: array missing" for name in [*SAMPLES, "time"] if name not in present]
-        checked = self.path if attrs.get("integrity") == INTEGRITY else None
-        for array, keep in _appended(group, n_samples, n_snapshots):
-            problems += _chunk_damage(array, array.basename, keep, checked)
+            problems = [
+                f"{name}: array missing" for name in [*SAMPLES, "time"] if name not in present
+            ]
+            for array, keep in _appended(group, n_samples, n_snapshots):
+                problems += _chunk_damage(array, array.basename, keep, checked)
         return problems
 
     def open(self) -> xr.Dataset:
