@@ -115,9 +115,13 @@ def _open_store(path: Path) -> RunStore:
     return store
 
 
-def _intact(store: RunStore) -> None:
-    """Refuse a store with missing or unreadable chunks, naming array and sample range."""
+def _intact(store: RunStore, checkpoint: bool = False) -> None:
+    """Refuse a store with missing or unreadable chunks, naming array and sample range
+    (with ``checkpoint``, those of an unfinished run's last checkpoint too)."""
     damage = store.damage()
+    pointer = store.attrs.get("checkpoint")
+    if checkpoint and pointer and not store.attrs.get("complete"):
+        damage += store.checkpoint_damage(pointer["slot"])
     if damage:
         _fail(f"{store.path}: damaged: {'; '.join(damage)}")
 
@@ -384,7 +388,7 @@ def info(
     run = _open_store(store)
     typer.echo(f"store                 {store}")
     typer.echo(provenance_text(xr.Dataset(attrs=run.attrs)))
-    _intact(run)
+    _intact(run, checkpoint=True)
     opened = run.open()
     if opened.sizes["time"]:
         typer.echo(summarize(opened))

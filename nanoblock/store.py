@@ -291,7 +291,7 @@ class RunStore:
     def damage(self, n_samples: int | None = None, n_snapshots: int | None = None) -> list[str]:
         """Every missing or unreadable chunk of the stored samples and snapshots, named by
         array and sample (or snapshot) range, up to ``n_samples`` and ``n_snapshots``
-        (default: what :meth:`open` shows); and of the checkpoint of an unfinished run."""
+        (default: what :meth:`open` shows)."""
         attrs = self.attrs
         pointer = attrs.get("checkpoint") or {}
         unfinished = not attrs.get("complete", True) and pointer

@@ -165,7 +165,8 @@ def test_deleting_any_chunk_is_reported_and_never_resumes_elsewhere(tmp_path, mo
     """A run killed after 45 of its 101 samples, checkpointed at every sample (slots at
     samples 44 and 45): with any one chunk deleted, the resume either refuses naming the
     array, or (a checkpoint slot damaged) resumes from an intact checkpoint, saying so
-    when it is not the last one, to the trajectory of the uninterrupted run."""
+    when it is not the last one, to the trajectory of the uninterrupted run; ``info``
+    names the damage (but for the spare slot)."""
     scenario = tmp_path / "tiny.toml"
     scenario.write_text(TINY)
     reference = simulate(load_scenario(scenario))
@@ -193,10 +194,12 @@ def test_deleting_any_chunk_is_reported_and_never_resumes_elsewhere(tmp_path, mo
         shutil.rmtree(damaged, ignore_errors=True)
         shutil.copytree(killed, damaged)
         (damaged / relative).unlink()
-        result = CliRunner().invoke(app, ["run", str(scenario), "--out", str(damaged), "-q"])
         spare = array.startswith("checkpoint/") and array.split("/")[1] != pointer["slot"]
+        info = CliRunner().invoke(app, ["info", str(damaged)])
+        assert info.exit_code == (0 if spare else 2), (relative, info.output)
+        result = CliRunner().invoke(app, ["run", str(scenario), "--out", str(damaged), "-q"])
         if not spare:
-            assert array in result.output, (relative, result.output)
+            assert array in info.output and array in result.output, (relative, result.output)
         if result.exit_code == 2:
             outcomes["refused"] += 1
             assert "damaged" in result.output and "Traceback" not in result.output
