@@ -17,35 +17,7 @@ import zarr
 from typer.testing import CliRunner
 
 from nanoblock.cli import app
-
-TINY = """
-[joint]
-block_size = 2.75e-9
-shear_modulus = 1.0e9
-threshold_stress = 1.0e8
-attempt_frequency = 1.0e12
-temperature = 300.0
-k2 = 0.0
-slip = "reset"
-
-[interface]
-normal_force = 1.0
-hardness = 1.0e8
-n_contacts = 4
-blocks_per_contact = 10
-memory_length = 5e-8
-
-[loading]
-stiffness = inf
-steps = [{ velocity = 1e-6, displacement = 1e-8 }]
-
-[run]
-seed = 1
-record_every = 1e-4
-initial_state = "steady"
-snapshot_every = 20
-"""
-"""A run of 101 samples and 6 snapshots that takes well under a second."""
+from tests.test_resume import TINY
 
 SECONDS = 30.0
 

@@ -23,7 +23,6 @@ from nanoblock.cli import app
 from nanoblock.engine import simulate
 from nanoblock.params import from_mapping, load_scenario
 from nanoblock.store import SAMPLES, SNAPSHOTS, RunStore
-from tests.test_refusals import TINY
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -62,6 +61,31 @@ snapshot_every = 10
 """
 """Velocity step, hold and reload with ageing, renewal and block snapshots: ~5 s of work on
 one thread, 281 samples."""
+
+REFERENCE_JOINT = SCENARIO[: SCENARIO.index("[interface]")]
+"""The reference mean-field joint (physics.md section 4) as a TOML section."""
+
+TINY = (
+    REFERENCE_JOINT
+    + """[interface]
+normal_force = 1.0
+hardness = 1.0e8
+n_contacts = 4
+blocks_per_contact = 10
+memory_length = 5e-8
+
+[loading]
+stiffness = inf
+steps = [{ velocity = 1e-6, displacement = 1e-8 }]
+
+[run]
+seed = 1
+record_every = 1e-4
+initial_state = "steady"
+snapshot_every = 20
+"""
+)
+"""A run of 101 samples and 6 snapshots that takes well under a second."""
 
 
 def variables_of(run: xr.Dataset) -> xr.Dataset:
