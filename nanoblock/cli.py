@@ -184,6 +184,7 @@ def _place_figure(rendered: Path, target: Path, store: Path) -> Path:
 
     info = PngImagePlugin.PngInfo()
     partial = target.with_name(f".{target.name}.partial")
+    target.parent.mkdir(parents=True, exist_ok=True)
     with Image.open(rendered) as image:
         for key, value in image.text.items():
             info.add_text(key, value)
@@ -264,6 +265,7 @@ def run(
         parsed = resolve_seed(load_scenario(path), seed)
         check_feasible(parsed, str(path))
         _output_directory(out.parent)
+        _output_directory(png.parent, "--figure")
         _claim_store(out, parsed)
         _claim_file(png, out, "--figure")
         _announce_resume(out)

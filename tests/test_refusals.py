@@ -182,6 +182,7 @@ OPTIONS: list[tuple[list[str], list[str]]] = [
     (["run", "{tiny}", "--out", "{file}"], ["user.txt", "existing file"]),
     (["run", "{tiny}", "--out", "{file}/x.zarr"], ["user.txt", "existing file"]),
     (["run", "{tiny}", "--out", "{tmp}/new.zarr", "--figure", "{tmp}"], ["--figure"]),
+    (["run", "{tiny}", "--out", "{tmp}/n.zarr", "--figure", "{file}/f.png"], ["user.txt"]),
     (["sweep", "{tiny}", "--set", "joint.temperature=290,300", "--out", "{file}"], ["user.txt"]),
     (["sweep", "{tiny}", "--set", "joint.colour=1,2", "--out", "{tmp}/s"], ["joint.colour"]),
     (["sweep", "{tiny}", "--seeds", "0", "--out", "{tmp}/s"], ["--seeds"]),
