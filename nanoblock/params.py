@@ -284,7 +284,10 @@ class Interface(_Section):
         description="mean contact lifetime in slip D0 [m]; inf disables renewal"
     )
     aging_m: NonNegative = Field(
-        0.0, le=1.0, description="logarithmic area growth m (001/Eq. 5); measured 0.01-0.1"
+        0.0,
+        le=10.0,
+        description="logarithmic area growth m (001/Eq. 5); measured 0.01-0.1, at most 10 "
+        "(the area would grow tenfold per e-fold of contact age)",
     )
     aging_time: Positive = Field(1e-3, description="creep onset time tau_m [s] (001/Eq. 5)")
     state_cutoff_velocity: PositiveOrInf | None = Field(

@@ -12,11 +12,14 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 import pytest
 import zarr
 from typer.testing import CliRunner
 
 from nanoblock.cli import app
+from nanoblock.engine import simulate
+from nanoblock.params import load_scenario
 from tests.test_resume import TINY
 
 SECONDS = 30.0
@@ -324,3 +327,17 @@ def test_a_sweep_point_that_cannot_run_is_refused_before_any_task(tmp_path) -> N
     args = ["sweep", _tiny(tmp_path), "--set", "joint.temperature=300,3000"]
     args += ["--set", "interface.n_contacts=400", "--out", str(tmp_path / "s")]
     refused(tmp_path, args, "tiny.toml, task 0001", "3000 K", "per sample")
+
+
+def test_a_store_written_before_checksums_still_opens_and_reports_bad_bytes(tmp_path) -> None:
+    """Stores from before issue 17 have no crc32c and may omit chunks of fill values:
+    they open as before; a chunk of random bytes (not zstd) is still reported."""
+    run = simulate(load_scenario(scenario_file(tmp_path, TINY)))
+    old = tmp_path / "old.zarr"
+    run.to_zarr(old, zarr_format=3, consolidated=False)
+    result = CliRunner().invoke(app, ["info", str(old)])
+    assert result.exit_code == 0, result.output
+    assert "block depinnings" in result.output
+    chunk = old / "friction_force" / "c" / "0"
+    chunk.write_bytes(np.random.default_rng(17).bytes(chunk.stat().st_size))
+    refused(tmp_path, ["info", str(old)], "friction_force: samples 0-100 unreadable")
