@@ -19,31 +19,38 @@ from importlib.resources import files
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, NoReturn
 
-import click
 import typer
 from typer.core import TyperGroup
+from typer.exceptions import TyperException
 
-from nanoblock.params import Scenario, ScenarioError, load_scenario, resolve_seed
+from nanoblock.params import (
+    Scenario,
+    ScenarioError,
+    check_feasible,
+    load_scenario,
+    resolve_seed,
+)
 from nanoblock.store import RunStore, StoreError
 
 if TYPE_CHECKING:
     import xarray as xr
 
 DEBUG = "nanoblock.debug"
-"""``click.Context.meta`` key of the ``--debug`` flag."""
+"""``typer.Context.meta`` key of the ``--debug`` flag."""
 
 STAMP = "nanoblock-store"
-"""PNG text key naming the run store a figure was drawn from (its absolute path)."""
+"""PNG text key naming the run store a figure was drawn from (its path relative to the
+figure's directory, so that the two may move together)."""
 
 
 class _OneMessage(TyperGroup):
     """Turn an unexpected error into one line on stderr and exit code 2 (with
     ``--debug``, the traceback)."""
 
-    def invoke(self, ctx: click.Context) -> Any:
+    def invoke(self, ctx: typer.Context) -> Any:
         try:
             return super().invoke(ctx)
-        except (typer.Exit, typer.Abort, click.exceptions.Exit, click.ClickException):
+        except (typer.Exit, typer.Abort, TyperException):  # typer reports these itself
             raise
         except Exception as error:
             if ctx.meta.get(DEBUG):
@@ -111,9 +118,13 @@ def _open_store(path: Path) -> RunStore:
     return store
 
 
-def _intact(store: RunStore) -> None:
-    """Refuse a store with missing or unreadable chunks, naming array and sample range."""
+def _intact(store: RunStore, checkpoint: bool = False) -> None:
+    """Refuse a store with missing or unreadable chunks, naming array and sample range
+    (with ``checkpoint``, those of an unfinished run's last checkpoint too)."""
     damage = store.damage()
+    pointer = store.attrs.get("checkpoint")
+    if checkpoint and pointer and not store.attrs.get("complete"):
+        damage += store.checkpoint_damage(pointer["slot"])
     if damage:
         _fail(f"{store.path}: damaged: {'; '.join(damage)}")
 
@@ -160,9 +171,14 @@ def _drawn_of(png: Path, store: Path) -> bool:
 
     try:
         with Image.open(png) as image:
-            return getattr(image, "text", {}).get(STAMP) == str(store.resolve())
+            return getattr(image, "text", {}).get(STAMP) == _stamp(png, store)
     except (OSError, ValueError):
         return False
+
+
+def _stamp(png: Path, store: Path) -> str:
+    """The :data:`STAMP` of a figure ``png`` drawn of ``store``."""
+    return os.path.relpath(store.resolve(), png.parent.resolve())
 
 
 def _place_figure(rendered: Path, target: Path, store: Path) -> Path:
@@ -171,10 +187,11 @@ def _place_figure(rendered: Path, target: Path, store: Path) -> Path:
 
     info = PngImagePlugin.PngInfo()
     partial = target.with_name(f".{target.name}.partial")
+    target.parent.mkdir(parents=True, exist_ok=True)
     with Image.open(rendered) as image:
         for key, value in image.text.items():
             info.add_text(key, value)
-        info.add_text(STAMP, str(store.resolve()))
+        info.add_text(STAMP, _stamp(target, store))
         image.save(partial, format="PNG", pnginfo=info)
     os.replace(partial, target)
     return target
@@ -203,8 +220,14 @@ def _announce_resume(out: Path) -> None:
     store = RunStore(out)
     if not store.exists() or store.attrs.get("complete"):
         return
+    last = store.attrs.get("checkpoint", {})
     checkpoint = store.read_checkpoint()
     at = checkpoint[1] if checkpoint else {"samples": 0, "simulated_time": 0.0}
+    if checkpoint and at["samples"] != last["samples"]:
+        typer.echo(
+            f"the checkpoint at sample {last['samples']} is damaged "
+            f"({'; '.join(store.checkpoint_damage(last['slot']))}): using the one before"
+        )
     typer.echo(f"resuming {out} from sample {at['samples']} (t = {at['simulated_time']} s)")
 
 
@@ -243,7 +266,9 @@ def run(
     png = figure or out.with_suffix(".png")
     with _bad_input():
         parsed = resolve_seed(load_scenario(path), seed)
+        check_feasible(parsed, str(path))
         _output_directory(out.parent)
+        _output_directory(png.parent, "--figure")
         _claim_store(out, parsed)
         _claim_file(png, out, "--figure")
         _announce_resume(out)
@@ -298,6 +323,8 @@ def sweep(
     _output_directory(out)
     with _bad_input(SweepError):
         spec = Sweep.from_file(scenario, assignments or [], seeds)
+        for task in spec.tasks():
+            check_feasible(task.scenario, f"{scenario}, task {task.name} {task.params}")
         report = run_sweep(
             spec,
             out,
@@ -366,7 +393,7 @@ def info(
     run = _open_store(store)
     typer.echo(f"store                 {store}")
     typer.echo(provenance_text(xr.Dataset(attrs=run.attrs)))
-    _intact(run)
+    _intact(run, checkpoint=True)
     opened = run.open()
     if opened.sizes["time"]:
         typer.echo(summarize(opened))

@@ -11,8 +11,11 @@ from __future__ import annotations
 
 import json
 import math
+import numbers
 import os
 import tomllib
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal, Self
@@ -35,27 +38,28 @@ from nanoblock.barriers import (
 )
 
 
-def _not_bool(value: Any) -> Any:
-    """Refuse a boolean where a number is expected (``temperature = true`` is not 1 K)."""
-    if isinstance(value, bool):
-        raise ValueError("a boolean is not a number")
+def _number(value: Any) -> Any:
+    """Refuse anything but a number where an integer is expected (``true``, ``"4"``)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(f"an integer is required, not a {type(value).__name__}")
     return value
 
 
-# Floats are strict (no booleans, no strings; integers are accepted); integers refuse
-# booleans but accept numpy integers.
+# Floats are strict (no booleans, no strings; integers are accepted); integers take
+# numbers only (numpy integers too; 2.0 is 2, 2.5 is refused).
 Positive = Annotated[float, Field(gt=0, allow_inf_nan=False, strict=True)]
 NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False, strict=True)]
 PositiveOrInf = Annotated[float, Field(gt=0, strict=True)]  # +inf allowed, NaN is not
-Count = Annotated[int, BeforeValidator(_not_bool)]
+Count = Annotated[int, BeforeValidator(_number)]
 
 U_MAX = 700.0
 """Largest reduced barrier u = U_a / k_B T: exp(-u) underflows in double precision near
 745, and above ~700 the blocks never depin thermally (only athermally at sigma_a)."""
 
-MAX_EVENTS_PER_SAMPLE = 1e9
-"""Most block depinnings expected between two stored samples (~1 min of work at the
-engine's throughput); more means a run that does not finish in practice."""
+MAX_EVENTS_PER_SAMPLE = 1e8
+"""Most block depinnings expected between two stored samples (10-100 s of work at the
+engine's throughput, 1e6-1e7 per second); more means a run that does not finish in
+practice, or blocks that are not pinned at all."""
 
 MAX_EVENTS = 1e12
 """Most block depinnings expected over a whole run (about a day of work)."""
@@ -68,6 +72,19 @@ JOINT_DENSITY = 1.0e3
 
 STRENGTH_CLASSES = 8
 """Default number of strength classes when ``joint.threshold_spread`` > 0."""
+
+
+@contextmanager
+def _representable(values: dict[str, Any]) -> Iterator[None]:
+    """Refuse ``values`` whose derived quantities over- or underflow double precision."""
+    try:
+        yield
+    except ArithmeticError as error:
+        shown = ", ".join(f"{key} = {value!r}" for key, value in values.items())
+        raise ValueError(
+            f"{shown}: derived quantities leave double precision ({error}); use values "
+            "within physical ranges"
+        ) from None
 
 
 class ScenarioError(ValueError):
@@ -122,7 +139,7 @@ class Joint(_Section):
     temperature: Positive = Field(description="temperature T [K]")
     barrier: Literal[tuple(BARRIERS)] = Field("persson", description="barrier law")  # type: ignore[valid-type]
     slip: Literal["chain", "reset"] = Field("chain", description="slip rule")
-    back_jumps: bool = Field(False, description="reverse hops in detailed balance")
+    back_jumps: bool = Field(False, strict=True, description="reverse hops in detailed balance")
     threshold_spread: NonNegative = Field(
         0.0, description="log-standard deviation of sigma_a across contacts"
     )
@@ -138,6 +155,11 @@ class Joint(_Section):
 
     @model_validator(mode="after")
     def _resolve(self) -> Self:
+        keys = ("block_size", "shear_modulus", "threshold_stress", "temperature", "k1")
+        with _representable({key: getattr(self, key) for key in keys}):
+            return self._derive()
+
+    def _derive(self) -> Self:
         self._soften()
         b, e_j = self.block_size, self.shear_modulus
         k1 = self.k1 if self.k1 is not None else e_j * b
@@ -158,6 +180,8 @@ class Joint(_Section):
             ("damping", damping),
             ("attempt_frequency", omega),
         ):
+            if not (math.isfinite(value) and (value > 0 or name == "k2")):
+                raise ArithmeticError(f"{name} would be {value}")
             object.__setattr__(self, name, float(value))
         if self.strength_classes is None:
             classes = STRENGTH_CLASSES if self.threshold_spread > 0.0 else 1
@@ -171,11 +195,16 @@ class Joint(_Section):
         """Refuse a barrier so high (cold joint, strong threshold) that nothing depins."""
         if self.u > U_MAX:
             coldest = self.u * self.temperature / U_MAX
+            allowed = (
+                f"temperature >= {coldest:.4g} K"
+                if math.isfinite(coldest)
+                else "a smaller threshold_stress or block_size, or a larger shear_modulus"
+            )
             raise ValueError(
                 f"at {self.temperature:.4g} K the blocks never depin thermally: "
-                f"u = U_a / k_B T = {self.u:.4g} exceeds {U_MAX:g} (exp(-u) underflows); "
-                f"allowed for this joint (threshold_stress, block_size, shear_modulus): "
-                f"temperature >= {coldest:.4g} K"
+                f"u = U_a / k_B T = {self.u:.4g} exceeds {U_MAX:g} (U_a from "
+                f"threshold_stress = {self.threshold_stress:.4g} Pa, block_size, "
+                f"shear_modulus); allowed for this joint: {allowed}"
             )
 
     def _soften(self) -> None:
@@ -255,7 +284,10 @@ class Interface(_Section):
         description="mean contact lifetime in slip D0 [m]; inf disables renewal"
     )
     aging_m: NonNegative = Field(
-        0.0, le=1.0, description="logarithmic area growth m (001/Eq. 5); measured 0.01-0.1"
+        0.0,
+        le=10.0,
+        description="logarithmic area growth m (001/Eq. 5); measured 0.01-0.1, at most 10 "
+        "(the area would grow tenfold per e-fold of contact age)",
     )
     aging_time: Positive = Field(1e-3, description="creep onset time tau_m [s] (001/Eq. 5)")
     state_cutoff_velocity: PositiveOrInf | None = Field(
@@ -379,45 +411,6 @@ class Scenario(_Section):
             )
         return self
 
-    @model_validator(mode="after")
-    def _feasible(self) -> Self:
-        """Refuse, before anything is allocated, a run this machine cannot hold or finish."""
-        needs = requirements(self)
-        run, interface = self.run, self.interface
-        if needs.samples > MAX_SAMPLES:
-            raise ValueError(
-                f"run.record_every = {run.record_every!r} s over the protocol's "
-                f"{self.total_time:.4g} s would store {needs.samples:.3g} samples; at most "
-                f"{MAX_SAMPLES:.0e} are allowed (record_every >= "
-                f"{self.total_time / MAX_SAMPLES:.3g} s)"
-            )
-        available = physical_memory()
-        if needs.memory > available:
-            raise ValueError(
-                f"interface.n_contacts = {interface.n_contacts} x "
-                f"interface.blocks_per_contact = {interface.blocks_per_contact} = "
-                f"{needs.blocks:.3g} blocks and {needs.samples:.3g} samples would need "
-                f"{needs.memory / 1e9:.3g} GB of memory; this machine has "
-                f"{available / 1e9:.3g} GB"
-            )
-        if needs.events_per_sample > MAX_EVENTS_PER_SAMPLE:
-            joint = self.joint
-            raise ValueError(
-                f"the {needs.blocks:.3g} blocks would depin ~{needs.events_per_sample:.3g} "
-                f"times per sample (run.record_every = {run.record_every!r} s): at "
-                f"{joint.temperature:.4g} K they hop over their barrier without load "
-                f"(u = {joint.u:.4g}: {needs.thermal_rate:.3g} /s per block) and sliding "
-                f"moves each across rho~_max {needs.driven_rate:.3g} times per s; at most "
-                f"{MAX_EVENTS_PER_SAMPLE:.0e} per sample are allowed: lower "
-                "joint.temperature, run.record_every or the number of blocks"
-            )
-        if needs.events > MAX_EVENTS:
-            raise ValueError(
-                f"the run would take ~{needs.events:.3g} block depinnings (days of work); "
-                f"at most {MAX_EVENTS:.0e} are allowed: fewer blocks or a shorter protocol"
-            )
-        return self
-
     @property
     def total_time(self) -> float:
         """Duration of the whole protocol [s]."""
@@ -483,6 +476,57 @@ def requirements(scenario: Scenario) -> Requirements:
     return Requirements(samples, blocks, memory, thermal, driven, per_sample, events)
 
 
+def check_feasible(scenario: Scenario, source: str = "scenario") -> None:
+    """Refuse, before anything is allocated, a run of ``scenario`` that this machine
+    cannot hold (samples, memory) or finish (expected depinnings per sample and in all):
+    ScenarioError naming the keys, what the run would need and what is allowed."""
+    try:
+        _feasible(scenario)
+    except ValueError as error:
+        raise ScenarioError(f"{source}: cannot run: {error}") from None
+
+
+def _feasible(scenario: Scenario) -> None:
+    """ValueError naming what ``scenario`` would need, if more than is allowed."""
+    joint = scenario.joint
+    with _representable(
+        {"joint.rho_max (threshold_stress b^2 / k1)": joint.rho_max, "joint.u": joint.u}
+    ):
+        needs = requirements(scenario)
+    run, interface = scenario.run, scenario.interface
+    if needs.samples > MAX_SAMPLES:
+        raise ValueError(
+            f"run.record_every = {run.record_every!r} s over the protocol's "
+            f"{scenario.total_time:.4g} s would store {needs.samples:.3g} samples; at most "
+            f"{MAX_SAMPLES:.0e} are allowed (record_every >= "
+            f"{scenario.total_time / MAX_SAMPLES:.3g} s)"
+        )
+    available = physical_memory()
+    if needs.memory > available:
+        raise ValueError(
+            f"interface.n_contacts = {interface.n_contacts} x "
+            f"interface.blocks_per_contact = {interface.blocks_per_contact} = "
+            f"{needs.blocks:.3g} blocks and {needs.samples:.3g} samples would need "
+            f"{needs.memory / 1e9:.3g} GB of memory; this machine has "
+            f"{available / 1e9:.3g} GB"
+        )
+    if needs.events_per_sample > MAX_EVENTS_PER_SAMPLE:
+        raise ValueError(
+            f"the {needs.blocks:.3g} blocks would depin ~{needs.events_per_sample:.3g} "
+            f"times per sample (run.record_every = {run.record_every!r} s): at "
+            f"{joint.temperature:.4g} K they hop over their barrier without load "
+            f"(u = {joint.u:.4g}: {needs.thermal_rate:.3g} /s per block) and sliding "
+            f"moves each across rho~_max {needs.driven_rate:.3g} times per s; at most "
+            f"{MAX_EVENTS_PER_SAMPLE:.0e} per sample are allowed: lower "
+            "joint.temperature, run.record_every or the number of blocks"
+        )
+    if needs.events > MAX_EVENTS:
+        raise ValueError(
+            f"the run would take ~{needs.events:.3g} block depinnings (days of work); "
+            f"at most {MAX_EVENTS:.0e} are allowed: fewer blocks or a shorter protocol"
+        )
+
+
 def physical_memory() -> float:
     """Physical memory of this machine [B] (inf where the platform does not say)."""
     try:
@@ -509,13 +553,12 @@ def _format_errors(error: ValidationError, source: str) -> str:
 
 def _allowed_range(ctx: dict[str, Any]) -> str:
     low, high = ctx.get("gt", ctx.get("ge")), ctx.get("lt", ctx.get("le"))
-    if low is None and high is None:
+    if high is not None:
+        return f" (allowed: {'at most' if 'le' in ctx else 'below'} {high})"
+    if low is None:
         return ""
-    left = "[" if "ge" in ctx else "("
-    right = "]" if "le" in ctx else ")"
-    low = "-inf" if low is None else low
-    high = "inf" if high is None else high
-    return f" (allowed range {left}{low}, {high}{right})"
+    bracket = "(" if "gt" in ctx else "["
+    return f" (allowed range {bracket}{low}, inf))"
 
 
 def from_mapping(data: dict[str, Any], source: str = "scenario") -> Scenario:

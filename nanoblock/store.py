@@ -16,6 +16,7 @@ other slot when the last one is damaged.
 from __future__ import annotations
 
 import json
+import warnings
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -243,12 +244,12 @@ class RunStore:
         if not pointer:
             return None
         current = pointer["slot"]
-        damaged = self._slot_damage(current)
+        damaged = self.checkpoint_damage(current)
         slot, resume = current, {k: v for k, v in pointer.items() if k != "slot"}
         if damaged:
             slot = "b" if current == "a" else "a"
             resume = self._slot_resume(slot)
-            if resume is None or self._slot_damage(slot):
+            if resume is None or self.checkpoint_damage(slot):
                 raise StoreError(
                     f"{self.path}: checkpoint damaged ({'; '.join(damaged)}) and no intact "
                     "earlier one: the run cannot be resumed on its own trajectory"
@@ -274,7 +275,7 @@ class RunStore:
         attrs = dict(group.attrs) if group is not None else {}
         return attrs if "samples" in attrs else None
 
-    def _slot_damage(self, slot: str) -> list[str]:
+    def checkpoint_damage(self, slot: str) -> list[str]:
         """Missing or unreadable chunks of a checkpoint slot."""
         group = self._slot(slot)
         if group is None:
@@ -290,7 +291,7 @@ class RunStore:
     def damage(self, n_samples: int | None = None, n_snapshots: int | None = None) -> list[str]:
         """Every missing or unreadable chunk of the stored samples and snapshots, named by
         array and sample (or snapshot) range, up to ``n_samples`` and ``n_snapshots``
-        (default: what :meth:`open` shows); and of the checkpoint of an unfinished run."""
+        (default: what :meth:`open` shows)."""
         attrs = self.attrs
         pointer = attrs.get("checkpoint") or {}
         unfinished = not attrs.get("complete", True) and pointer
@@ -298,11 +299,15 @@ class RunStore:
             n_samples = int(pointer["samples"]) if unfinished else None
             n_snapshots = int(pointer.get("snapshots", 0)) if unfinished else None
         group = zarr.open_group(self.path, mode="r")
-        present = set(group.array_keys())
-        problems = [f"{name}: array missing" for name in [*SAMPLES, "time"] if name not in present]
         checked = self.path if attrs.get("integrity") == INTEGRITY else None
-        for array, keep in _appended(group, n_samples, n_snapshots):
-            problems += _chunk_damage(array, array.basename, keep, checked)
+        with warnings.catch_warnings():  # a folder without zarr.json: reported as missing
+            warnings.simplefilter("ignore", UserWarning)
+            present = set(group.array_keys())
+            problems = [
+                f"{name}: array missing" for name in [*SAMPLES, "time"] if name not in present
+            ]
+            for array, keep in _appended(group, n_samples, n_snapshots):
+                problems += _chunk_damage(array, array.basename, keep, checked)
         return problems
 
     def open(self) -> xr.Dataset:

@@ -2,10 +2,17 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import xarray as xr
 from typer.testing import CliRunner
 
 from nanoblock.cli import app, default_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
 
 SMALL = {
     "n_contacts = 400": "n_contacts = 20",
@@ -39,3 +46,33 @@ def test_run_writes_store_figure_and_summary(tmp_path) -> None:
     )
     assert again.exit_code == 0  # a finished store is reported, not recomputed or replaced
     assert xr.open_zarr(out, consolidated=False).sizes["time"] == stored.sizes["time"]
+    wall = [line for line in result.output.splitlines() if line.startswith("wall time")]
+    assert wall and wall[0] in again.output  # the stored wall time, not the re-run's
+    assert "sliding, segment 2" in again.output and "segment 3" not in again.output  # hold
+
+
+def nanoblock(*args: str) -> subprocess.CompletedProcess:
+    """``python -m nanoblock.cli ARGS`` in a subprocess importing this tree."""
+    path = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])
+    command = [sys.executable, "-m", "nanoblock.cli", *args]
+    env = {**os.environ, "PYTHONPATH": path}
+    return subprocess.run(command, capture_output=True, text=True, env=env, timeout=120)
+
+
+def test_a_directory_holding_a_users_file_survives_run_out(tmp_path) -> None:
+    folder = tmp_path / "thesis"
+    folder.mkdir()
+    (folder / "thesis.tex").write_text("\\chapter{Friction} years of work")
+    done = nanoblock("run", str(small_quickstart(tmp_path)), "--out", str(folder), "--quiet")
+    assert done.returncode == 2, done
+    assert f"{folder}: --out is a directory that is not a nanoblock run store" in done.stderr
+    assert "thesis.tex" in done.stderr and "Traceback" not in done.stderr + done.stdout
+    assert [p.name for p in folder.iterdir()] == ["thesis.tex"]
+    assert (folder / "thesis.tex").read_text().endswith("years of work")
+    assert not (tmp_path / "thesis.png").exists()
+
+
+def test_a_process_reports_a_bad_input_in_one_line(tmp_path) -> None:
+    done = nanoblock("run", str(tmp_path))  # a directory as the scenario
+    assert done.returncode == 2
+    assert done.stderr == f"error: {tmp_path}: is a directory; a scenario TOML file is required\n"

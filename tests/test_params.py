@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 
 import pytest
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from nanoblock.cli import app, default_scenario
@@ -85,3 +87,81 @@ def test_cli_refuses_bad_scenario_with_exit_code_2(tmp_path) -> None:
 def test_missing_file_is_a_clear_error(tmp_path) -> None:
     with pytest.raises(ScenarioError, match="not found"):
         load_scenario(tmp_path / "nope.toml")
+
+
+OPTIONAL = {
+    "joint": ["k1", "block_mass", "damping", "barrier", "threshold_spread", "strength_classes"],
+    "interface": ["aging_time", "state_cutoff_velocity", "reference_force"],
+    "run": ["step_slip", "snapshot_every"],
+}
+LEAVES = sorted(
+    {
+        (section, key)
+        for section, values in REFERENCE.items()
+        if section != "loading"
+        for key in values
+    }
+    | {(section, key) for section, keys in OPTIONAL.items() for key in keys}
+    | {("loading", "stiffness"), ("joint", "colour"), ("run", "speed")}
+    | {("steps", key) for key in ("velocity", "displacement", "duration", "hold")}
+)
+KEY_NAMES = {key for _, key in LEAVES} | {"steps", "velocity", "number of blocks"}
+ANY_VALUE = st.one_of(
+    st.floats(),
+    st.sampled_from([5e-324, 1e-300, 1e-20, 1e20, 1e300, 1.7e308]),
+    st.integers(min_value=-(2**70), max_value=2**70),
+    st.booleans(),
+    st.text(max_size=4),
+    st.none(),
+    st.lists(st.integers(), max_size=2),
+)
+WRONG_TYPE = st.one_of(st.booleans(), st.text(max_size=4), st.lists(st.floats(), max_size=2))
+NUMERIC = [
+    leaf
+    for leaf in LEAVES
+    if isinstance(REFERENCE.get(leaf[0], {}).get(leaf[1]), float | int)
+    and not isinstance(REFERENCE[leaf[0]][leaf[1]], bool)
+]
+
+
+def _mutated(changes: list[tuple[tuple[str, str], object]]) -> dict:
+    data = merged(REFERENCE, {})
+    for (section, key), value in changes:
+        target = data["loading"]["steps"][0] if section == "steps" else data[section]
+        target[key] = value
+    return data
+
+
+@settings(max_examples=300, deadline=None, database=None)
+@given(st.lists(st.tuples(st.sampled_from(LEAVES), ANY_VALUE), min_size=1, max_size=3))
+@example([(("joint", "block_size"), 1e-300)])  # division by zero in the derived springs
+@example([(("joint", "block_size"), 1e300)])  # overflow
+@example([(("joint", "threshold_stress"), 5e-324)])  # rho~_max = 0
+@example([(("joint", "temperature"), True)])
+def test_any_scenario_mapping_is_accepted_or_refused_by_name(changes) -> None:
+    """Whatever the values (a step's too), the reader returns a scenario that reproduces
+    itself, or a ScenarioError naming a key (never another exception)."""
+    try:
+        scenario = from_mapping(_mutated(changes))
+    except ScenarioError as error:
+        message = str(error)
+        assert any(name in message for name in KEY_NAMES), message
+        return
+    assert Scenario.from_json(scenario.resolved_json()) == scenario
+
+
+@settings(max_examples=200, deadline=None, database=None)
+@given(st.sampled_from(NUMERIC), WRONG_TYPE)
+def test_a_number_of_the_wrong_type_is_refused_by_its_key(leaf, value) -> None:
+    """Booleans, strings and lists are never read as numbers."""
+    with pytest.raises(ScenarioError, match=rf"{leaf[0]}\.{leaf[1]}"):
+        from_mapping(_mutated([(leaf, value)]))
+
+
+@settings(max_examples=200, deadline=None, database=None)
+@given(st.sampled_from(NUMERIC), st.floats(max_value=0.0) | st.just(math.nan))
+def test_a_non_positive_or_nan_number_is_refused_by_its_key(leaf, value) -> None:
+    if leaf[1] in {"k2", "aging_m", "seed"} and value == 0.0:
+        return  # zero is allowed there
+    with pytest.raises(ScenarioError, match=leaf[1]):
+        from_mapping(_mutated([(leaf, value)]))

@@ -4,6 +4,7 @@ to the trajectory of an uninterrupted run, bit for bit."""
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -12,9 +13,13 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
+import pytest
 import xarray as xr
 import zarr
+from typer.testing import CliRunner
 
+import nanoblock.engine as engine
+from nanoblock.cli import app
 from nanoblock.engine import simulate
 from nanoblock.params import from_mapping, load_scenario
 from nanoblock.store import SAMPLES, SNAPSHOTS, RunStore
@@ -56,6 +61,31 @@ snapshot_every = 10
 """
 """Velocity step, hold and reload with ageing, renewal and block snapshots: ~5 s of work on
 one thread, 281 samples."""
+
+REFERENCE_JOINT = SCENARIO[: SCENARIO.index("[interface]")]
+"""The reference mean-field joint (physics.md section 4) as a TOML section."""
+
+TINY = (
+    REFERENCE_JOINT
+    + """[interface]
+normal_force = 1.0
+hardness = 1.0e8
+n_contacts = 4
+blocks_per_contact = 10
+memory_length = 5e-8
+
+[loading]
+stiffness = inf
+steps = [{ velocity = 1e-6, displacement = 1e-8 }]
+
+[run]
+seed = 1
+record_every = 1e-4
+initial_state = "steady"
+snapshot_every = 20
+"""
+)
+"""A run of 101 samples and 6 snapshots that takes well under a second."""
 
 
 def variables_of(run: xr.Dataset) -> xr.Dataset:
@@ -148,3 +178,60 @@ def test_a_store_killed_inside_an_append_opens_as_far_as_its_checkpoint(tmp_path
     expected = intact.isel(time=slice(0, n_samples - 3))
     xr.testing.assert_identical(variables_of(seen), variables_of(expected))
     assert sorted(str(p.relative_to(out)) for p in out.rglob("*")) == listing
+
+
+def _chunks(store: Path) -> list[Path]:
+    """Every chunk file of a store (data, snapshots and both checkpoint slots)."""
+    return sorted(p for p in store.rglob("*") if p.is_file() and "c" in p.relative_to(store).parts)
+
+
+def test_deleting_any_chunk_is_reported_and_never_resumes_elsewhere(tmp_path, monkeypatch):
+    """A run killed after 45 of its 101 samples, checkpointed at every sample (slots at
+    samples 44 and 45): with any one chunk deleted, the resume either refuses naming the
+    array, or (a checkpoint slot damaged) resumes from an intact checkpoint, saying so
+    when it is not the last one, to the trajectory of the uninterrupted run; ``info``
+    names the damage (but for the spare slot)."""
+    scenario = tmp_path / "tiny.toml"
+    scenario.write_text(TINY)
+    reference = simulate(load_scenario(scenario))
+    killed = tmp_path / "killed.zarr"
+    original = engine.Run.step_to_next_sample
+    with monkeypatch.context() as patch:
+
+        def crash_after_45(self):
+            if self.next_sample >= 45:
+                raise KeyboardInterrupt("simulated kill")
+            return original(self)
+
+        patch.setattr(engine.Run, "step_to_next_sample", crash_after_45)
+        with pytest.raises(KeyboardInterrupt):
+            simulate(load_scenario(scenario), killed, flush_seconds=0.0)
+    pointer = RunStore(killed).attrs["checkpoint"]
+    assert pointer["samples"] == 45
+    chunks = _chunks(killed)
+    assert len(chunks) > 30
+    outcomes = {"refused": 0, "resumed": 0}
+    for chunk in chunks:
+        relative = chunk.relative_to(killed)
+        array = "/".join(relative.parts[: relative.parts.index("c")])
+        damaged = tmp_path / "damaged.zarr"
+        shutil.rmtree(damaged, ignore_errors=True)
+        shutil.copytree(killed, damaged)
+        (damaged / relative).unlink()
+        spare = array.startswith("checkpoint/") and array.split("/")[1] != pointer["slot"]
+        info = CliRunner().invoke(app, ["info", str(damaged)])
+        assert info.exit_code == (0 if spare else 2), (relative, info.output)
+        result = CliRunner().invoke(app, ["run", str(scenario), "--out", str(damaged), "-q"])
+        if not spare:
+            assert array in info.output and array in result.output, (relative, result.output)
+        if result.exit_code == 2:
+            outcomes["refused"] += 1
+            assert "damaged" in result.output and "Traceback" not in result.output
+            continue
+        assert result.exit_code == 0, (relative, result.output)
+        assert array.startswith("checkpoint/"), relative  # data damage is never resumed over
+        outcomes["resumed"] += 1
+        resumed = xr.open_zarr(damaged, consolidated=False)
+        for name in [*SAMPLES, *SNAPSHOTS, "time", "snapshot_time"]:
+            np.testing.assert_array_equal(resumed[name].values, reference[name].values, name)
+    assert outcomes["refused"] and outcomes["resumed"], outcomes
