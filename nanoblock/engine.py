@@ -7,6 +7,7 @@ zarr store that a killed run resumes from. The physics lives in :mod:`nanoblock.
 
 from __future__ import annotations
 
+import sys
 import time as wallclock
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,6 +20,7 @@ from scipy.linalg import solve_banded
 from tqdm.auto import tqdm
 
 import nanoblock
+from nanoblock.kernels._jit import cached
 from nanoblock.kernels.blocks import landing_overshoot
 from nanoblock.kernels.chain import reduced_stresses
 from nanoblock.kernels.contacts import ageing_rate, total_contact_area
@@ -29,6 +31,16 @@ from nanoblock.params import Scenario, ScenarioError, resolve_seed
 from nanoblock.store import SAMPLES, SNAPSHOTS, RunStore, dataset
 from nanoblock.tables import hazard_table, lattice_hazard_table
 from nanoblock.theory.meanfield import MeanFieldJoint, sample_q_stationary
+
+COMPILING = (
+    "compiling kernels (once after install): about {minutes} min on 2 cores, "
+    "then loaded from the cache in seconds"
+)
+"""Shown on stderr, with a progress bar, when the kernels are not in Numba's cache."""
+
+COMPILE_MINUTES = 1.5
+"""Measured cold compile of the quickstart's kernels, 2-core machine
+(``benchmarks/bench_quickstart.py``), rounded up [min]."""
 
 FLUSH_SECONDS = 5.0
 """Default wall time [s] between flushes of samples, checkpoint and progress attrs to the
@@ -371,9 +383,12 @@ def simulate(
     :data:`FLUSH_SECONDS`); if the store holds an unfinished run of the same scenario, the
     run resumes from its last checkpoint. Without a store, the Dataset (with block
     snapshots if ``run.snapshot_every`` > 0) is built in memory. ``progress`` shows a
-    progress bar (simulated time, slip, events/s, ETA).
+    progress bar (simulated time, slip, events/s, ETA), preceded on stderr by
+    :data:`COMPILING` when the kernels are not in Numba's cache yet.
     """
     scenario = resolve_seed(scenario, seed)
+    if progress and not cached(advance_to_sample):
+        print(COMPILING.format(minutes=COMPILE_MINUTES), file=sys.stderr, flush=True)
     run = Run(scenario)
     writer = RunStore(store) if store is not None else None
     interval = FLUSH_SECONDS if flush_seconds is None else flush_seconds

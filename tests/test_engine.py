@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import json
 import os
 import subprocess
@@ -13,6 +14,7 @@ import xarray as xr
 
 import nanoblock.engine as engine
 from nanoblock.engine import simulate
+from nanoblock.kernels._jit import cached
 from nanoblock.params import ScenarioError
 from nanoblock.store import SAMPLES, SNAPSHOTS
 from tests.conftest import RHO_MAX, scenario
@@ -258,3 +260,29 @@ def test_rigid_spring_steps_run_to_each_sample_through_velocity_steps_and_holds(
     np.testing.assert_allclose(fine.time, whole.time, rtol=1e-9)
     difference = whole.friction_coefficient.values - fine.friction_coefficient.values
     assert np.sqrt(np.mean(difference**2)) < 0.02
+
+
+def test_cached_tells_a_cold_kernel_from_a_compiled_one(tmp_path, monkeypatch) -> None:
+    """The compile notice's check reads Numba's cache index: False before the first call
+    of a fresh cached kernel, True once it has compiled into the cache."""
+    (tmp_path / "fresh_kernel.py").write_text(
+        "from nanoblock.kernels._jit import kernel\n\n\n"
+        "@kernel\ndef twice(x: float) -> float:\n    return 2.0 * x\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    module = importlib.import_module("fresh_kernel")
+    assert not cached(module.twice)
+    assert module.twice(1.5) == 3.0
+    assert cached(module.twice)
+
+
+def test_progress_says_when_kernels_compile(capsys, monkeypatch) -> None:
+    run = scenario(loading={"stiffness": 1e6, "steps": [{"velocity": 1e-6, "duration": 1e-3}]})
+    simulate(run)  # compiles into the cache if this is the first run
+    simulate(run, progress=True)
+    assert "compiling kernels" not in capsys.readouterr().err
+    monkeypatch.setattr(engine, "cached", lambda dispatcher: False)
+    simulate(run, progress=True)
+    assert "compiling kernels (once after install)" in capsys.readouterr().err
+    simulate(run)
+    assert "compiling" not in capsys.readouterr().err
