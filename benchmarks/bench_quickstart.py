@@ -5,8 +5,9 @@ Run: ``python benchmarks/bench_quickstart.py [--busy]``. Each run is a fresh pro
 (``python -c "from nanoblock.cli import app; app()" run --quiet``, this source tree first
 on the path) with NUMBA_CACHE_DIR set to a new temporary directory, so the machine's own
 cache is neither used nor touched. Targets on the idle 2-core machine: cold < 30 s,
-warm < 10 s. ``--busy`` also times warm runs with 1 and 2 threads while a busy loop holds
-one core (issue 16: two threads never slower than one). Writes
+warm < 10 s. ``--busy`` also times warm runs while a busy loop holds one core: one thread,
+the default (:class:`nanoblock.threads.ThreadBudget` picks the threads) and two forced
+threads (issue 16: the default is never slower than one thread). Writes
 ``benchmarks/results_quickstart.json`` with the load averages before each measurement.
 """
 
@@ -58,10 +59,8 @@ def main() -> None:
         if args.busy:
             hog = subprocess.Popen([sys.executable, "-c", BUSY])
             try:
-                for threads in (1, 2):
-                    results[f"warm, one core busy, {threads} thread(s)"] = run_quickstart(
-                        Path(cache), threads
-                    )
+                for threads, label in ((1, "1 thread"), (None, "default"), (2, "2 threads")):
+                    results[f"warm, one core busy, {label}"] = run_quickstart(Path(cache), threads)
             finally:
                 hog.kill()
     for name, result in results.items():

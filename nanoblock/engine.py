@@ -31,6 +31,7 @@ from nanoblock.params import Scenario, ScenarioError, resolve_seed
 from nanoblock.store import SAMPLES, SNAPSHOTS, RunStore, dataset
 from nanoblock.tables import hazard_table, lattice_hazard_table
 from nanoblock.theory.meanfield import MeanFieldJoint, sample_q_stationary
+from nanoblock.threads import ThreadBudget
 
 COMPILING = (
     "compiling kernels (once after install): about {minutes} min on 2 cores, "
@@ -413,28 +414,30 @@ def simulate(
     )
     started = wallclock.perf_counter()
     events_at_start = int(run.state.events.sum())
-    while not run.done:
-        sample = run.step_to_next_sample()
-        samples.append(sample)
-        if every and (run.next_sample - 1) % every == 0:
-            snaps.append(run.snapshot())
-        bar.update(sample["time"] - bar.n)
-        rate = (sample["n_events"] - events_at_start) / max(
-            wallclock.perf_counter() - started, 1e-9
-        )
-        bar.set_postfix_str(
-            f"slip {sample['slider_displacement']:.3g} m, {rate:.3g} events/s", refresh=False
-        )
-        now = wallclock.perf_counter()
-        if writer is not None and (run.done or now - last_flush > interval):
-            _flush(run, writer, samples, snaps, fresh, wall_before + now - started)
-            fresh = False
-            samples, snaps = [], []
-            last_flush = now
-        elif writer is None:
-            all_samples.extend(samples)
-            all_snaps.extend(snaps)
-            samples, snaps = [], []
+    with ThreadBudget() as budget:
+        while not run.done:
+            budget.update()
+            sample = run.step_to_next_sample()
+            samples.append(sample)
+            if every and (run.next_sample - 1) % every == 0:
+                snaps.append(run.snapshot())
+            bar.update(sample["time"] - bar.n)
+            rate = (sample["n_events"] - events_at_start) / max(
+                wallclock.perf_counter() - started, 1e-9
+            )
+            bar.set_postfix_str(
+                f"slip {sample['slider_displacement']:.3g} m, {rate:.3g} events/s", refresh=False
+            )
+            now = wallclock.perf_counter()
+            if writer is not None and (run.done or now - last_flush > interval):
+                _flush(run, writer, samples, snaps, fresh, wall_before + now - started)
+                fresh = False
+                samples, snaps = [], []
+                last_flush = now
+            elif writer is None:
+                all_samples.extend(samples)
+                all_snaps.extend(snaps)
+                samples, snaps = [], []
     bar.close()
     if writer is not None:
         writer.update_attrs(complete=True)
