@@ -43,6 +43,10 @@ COMPILE_MINUTES = 1.5
 """Measured cold compile of the quickstart's kernels, 2-core machine
 (``benchmarks/bench_quickstart.py``), rounded up [min]."""
 
+TRANSIENT_FORCE_STEP = 0.005
+"""epsilon: in transients the drive mismatch changes the force by at most epsilon alpha F
+per internal step."""
+
 FLUSH_SECONDS = 5.0
 """Default wall time [s] between flushes of samples, checkpoint and progress attrs to the
 store (per run: ``simulate(..., flush_seconds=)``, ``nanoblock run --flush-seconds``)."""
@@ -71,6 +75,7 @@ def kernel_parameters(scenario: Scenario) -> np.ndarray:
     record["contact_area"] = interface.real_area / interface.n_contacts
     record["stiffness"] = scenario.loading.stiffness
     record["step_slip"] = scenario.step_slip
+    record["force_step"] = TRANSIENT_FORCE_STEP / (2.0 * joint.u)  # epsilon alpha, alpha = 1/2u
     return params
 
 
