@@ -19,10 +19,11 @@ drift of order k_int / K of the slip, and K -> inf is the rigid drive: no drift,
 steps to the next sample or segment end. In transients (a velocity step, the loading of
 a soft spring) the drive mismatch V_L - V_f - D changes the spring force at K times it;
 a step may change the force so by at most ``force_step`` F (0.005 alpha F, so the
-interface's velocity changes by about 0.5 % per step and the prediction lags little). The mismatch counts only beyond ``_NOISE_Z`` standard deviations of the drift's
-scatter: each depinning drops the force by about 2 F / n_blocks, so the drift measured
-over a step with n depinnings scatters by 2 F sqrt(n) / (n_blocks (K + k_int) dt). On a
-stiff spring that velocity noise is all the mismatch there is, and it bounds no step.
+interface's velocity changes by about 0.5 % per step and the prediction lags little).
+The mismatch counts only beyond ``_NOISE_Z`` standard deviations of the drift's scatter:
+each depinning drops the force by about 2 F / n_blocks, so the drift measured over a
+step with n depinnings scatters by 2 F sqrt(n) / (n_blocks (K + k_int) dt). On a stiff
+spring that velocity noise is all the mismatch there is, and it bounds no step.
 
 ``slider`` is a one-element record array of :data:`nanoblock.kernels.layout.SLIDER`;
 ``strength`` and ``tables`` the strength classes of :mod:`.layout`; ``protocol`` is
