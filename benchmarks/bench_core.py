@@ -1,8 +1,10 @@
 """Benchmark of the core simulator (issue 2): throughput, scaling and memory.
 
-Run: ``python benchmarks/bench_core.py [--quick]``. Prints a Markdown table and writes
-``benchmarks/results_core.json``. Each measurement runs in a fresh subprocess with the
-thread count set by NUMBA_NUM_THREADS (compilation is cached and excluded by a warm-up).
+Run: ``python benchmarks/bench_core.py [--quick] [--table]`` (``--table``: only the
+stiffness table of issue 16, events/s from K/W = 1e2 1/m to a rigid drive, one thread).
+Prints a Markdown table and updates ``benchmarks/results_core.json``. Each measurement
+runs in a fresh subprocess with the thread count set by NUMBA_NUM_THREADS (compilation is
+cached and excluded by a warm-up).
 """
 
 from __future__ import annotations
@@ -58,6 +60,37 @@ _, events = simulate_mean_field(x, velocity, 2.75e-10, 1e12, 50.21, 2.75e-10 / v
 print(json.dumps({"wall": time.perf_counter() - started, "events": events}))
 """
 
+TABLE = r"""
+import json, sys, time
+sys.path.insert(0, sys.argv[1])
+from tests.conftest import scenario, RHO_MAX
+from nanoblock.engine import simulate
+spec = json.loads(sys.argv[2])
+def build(stiffness, velocity, slip_rho):
+    return scenario(
+        joint=spec["joint"],
+        interface={"n_contacts": spec["contacts"], "blocks_per_contact": spec["blocks"]},
+        loading={"stiffness": stiffness,
+                 "steps": [{"velocity": velocity, "displacement": slip_rho * RHO_MAX}]},
+        run={"record_every": 5 * RHO_MAX / velocity, "initial_state": "steady", "seed": 1},
+    )
+simulate(build(1e6, 1e-6, 2))  # warm-up: compile or load the cache
+rates = {}
+for velocity in spec["velocities"]:
+    for stiffness in spec["stiffnesses"]:
+        started = time.perf_counter()
+        result = simulate(build(stiffness, velocity, spec["slip_rho"]))
+        wall = time.perf_counter() - started
+        rates[f"{velocity:g} {stiffness:g}"] = int(result.n_events[-1]) / wall
+print(json.dumps(rates))
+"""
+
+STIFFNESSES = [1e2, 1e4, 1e6, 1e9, 1e12, float("inf")]
+"""Drive stiffnesses K of the stiffness table [N/m]; the scenarios' W = 1 N, so K/W [1/m]."""
+
+TABLE_VELOCITIES = [1e-9, 1e-6, 1e-3]
+"""Load-point velocities of the stiffness table [m/s]."""
+
 MEAN_FIELD = {"k2": 0.0, "slip": "reset"}
 CHAIN = {"k2": 2.75, "slip": "chain"}
 
@@ -74,9 +107,38 @@ def measure(spec: dict, threads: int, code: str = WORKER) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+def stiffness_table(scale: float, record) -> dict:
+    """Depinnings/s at every drive stiffness and velocity, mean field and chain (issue 16:
+    within each velocity max/min <= 2). Returns the rates by joint, "V K" keys."""
+    tables = {}
+    for name, joint, contacts in (("mean-field", MEAN_FIELD, 100), ("chain", CHAIN, 20)):
+        spec = {
+            "joint": joint,
+            "contacts": contacts,
+            "blocks": 100,
+            "velocities": TABLE_VELOCITIES,
+            "stiffnesses": STIFFNESSES,
+            "slip_rho": 50 * scale,
+        }
+        rates = measure(spec, 1, TABLE)
+        tables[name] = rates
+        for velocity in TABLE_VELOCITIES:
+            row = [rates[f"{velocity:g} {stiffness:g}"] for stiffness in STIFFNESSES]
+            cells = ", ".join(f"{k:g}: {r:.3g}" for k, r in zip(STIFFNESSES, row, strict=True))
+            record(
+                f"{name}, {contacts * 100} blocks, V = {velocity:g} m/s, 1 thread: max/min "
+                f"depinnings/s over K/W = 1e2..1e12 1/m and rigid ({cells})",
+                max(row) / min(row),
+                "x",
+                "<= 2",
+            )
+    return tables
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="shorter runs (smoke test)")
+    parser.add_argument("--table", action="store_true", help="only the stiffness table")
     args = parser.parse_args()
     scale = 0.2 if args.quick else 1.0
     rows, results = [], {}
@@ -85,6 +147,26 @@ def main() -> None:
         results[name] = value
         rows.append(f"| {name} | {value:.3g} {unit} | {target} |")
 
+    results["stiffness_table_1_thread"] = stiffness_table(scale, record)
+    if not args.table:
+        throughput(scale, record, results)
+    machine = (
+        f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+        f"Python {platform.python_version()}"
+    )
+    print(f"Machine: {machine}, load averages {os.getloadavg()} before the last run\n")
+    print("| measurement | value | target |\n|---|---|---|")
+    print("\n".join(rows))
+    results["machine"] = machine
+    results["load_averages"] = os.getloadavg()
+    results["timestamp"] = time.strftime("%Y-%m-%d %H:%M")
+    path = ROOT / "benchmarks" / "results_core.json"
+    stored = json.loads(path.read_text()) if path.exists() else {}
+    path.write_text(json.dumps(stored | results, indent=2))
+
+
+def throughput(scale: float, record, results: dict) -> None:
+    """Issue 2's throughput, scaling and memory rows."""
     big = {
         "joint": MEAN_FIELD,
         "contacts": 1000,
@@ -153,17 +235,7 @@ def main() -> None:
         "x",
         "(reported)",
     )
-    machine = (
-        f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-        f"Python {platform.python_version()}"
-    )
-    print(f"Machine: {machine}\n")
-    print("| measurement | value | target |\n|---|---|---|")
-    print("\n".join(rows))
     results["wall_per_um"] = {str(k): v for k, v in per_um.items()}
-    results["machine"] = machine
-    results["timestamp"] = time.strftime("%Y-%m-%d")
-    (ROOT / "benchmarks" / "results_core.json").write_text(json.dumps(results, indent=2))
 
 
 if __name__ == "__main__":

@@ -7,6 +7,7 @@ zarr store that a killed run resumes from. The physics lives in :mod:`nanoblock.
 
 from __future__ import annotations
 
+import sys
 import time as wallclock
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,19 +20,32 @@ from scipy.linalg import solve_banded
 from tqdm.auto import tqdm
 
 import nanoblock
+from nanoblock.kernels._jit import cached
 from nanoblock.kernels.blocks import landing_overshoot
 from nanoblock.kernels.chain import reduced_stresses
 from nanoblock.kernels.contacts import ageing_rate, total_contact_area
 from nanoblock.kernels.layout import PARAMS, SLIDER
 from nanoblock.kernels.rng import seed_streams
-from nanoblock.kernels.stepper import advance_to_sample
+from nanoblock.kernels.stepper import advance_to_sample, following_velocity
 from nanoblock.params import Scenario, ScenarioError, resolve_seed
 from nanoblock.store import SAMPLES, SNAPSHOTS, RunStore, dataset
 from nanoblock.tables import hazard_table, lattice_hazard_table
 from nanoblock.theory.meanfield import MeanFieldJoint, sample_q_stationary
+from nanoblock.threads import ThreadBudget
+
+COMPILING = (
+    "compiling kernels (once after install): about {minutes} min on 2 cores, "
+    "then loaded from the cache in seconds"
+)
+"""Shown on stderr, with a progress bar, when the kernels are not in Numba's cache."""
+
+COMPILE_MINUTES = 1.5
+"""Measured cold compile of the quickstart's kernels, 2-core machine
+(``benchmarks/bench_quickstart.py``), rounded up [min]."""
 
 TRANSIENT_FORCE_STEP = 0.005
-"""epsilon: in transients one internal step changes the force by at most epsilon alpha F."""
+"""epsilon: in transients the drive mismatch changes the force by at most epsilon alpha F
+per internal step."""
 
 FLUSH_SECONDS = 5.0
 """Default wall time [s] between flushes of samples, checkpoint and progress attrs to the
@@ -192,11 +206,16 @@ def initial_state(
     events = np.zeros(shape[0], dtype=np.int64)
     state = InterfaceState(y, h, age, slip, lifetime, events, streams)
     slider = state.slider[0]
-    slider["velocity"] = scenario.loading.steps[0].load_velocity
     area = total_contact_area(age, params[0])
     forces = (area * sigma_a * y[k::n_classes].mean() for k, (sigma_a, _) in enumerate(strength))
     slider["force"] = sum(forces) / n_classes
     slider["stiffness"] = area * strength[0, 0] / strength[0, 1]
+    if scenario.run.initial_state == "steady":
+        # steady sliding: the depinnings carry the slider beyond the pinned response
+        load_velocity = scenario.loading.steps[0].load_velocity
+        stiffness = scenario.loading.stiffness
+        following = following_velocity(load_velocity, float(slider["stiffness"]), stiffness)
+        slider["drift"] = load_velocity - following
     if np.isfinite(scenario.loading.stiffness):
         # start in balance: the drive spring already carries the initial interface force
         slider["load_point"] = 0.0
@@ -257,7 +276,7 @@ class Run:
         if self.next_sample:
             velocity = (position - self.last_position) / interval
         else:
-            velocity = float(slider["velocity"])
+            velocity = self.scenario.loading.steps[0].load_velocity
         self.last_position = position
         self.next_sample += 1
         force = float(slider["force"])
@@ -370,9 +389,12 @@ def simulate(
     :data:`FLUSH_SECONDS`); if the store holds an unfinished run of the same scenario, the
     run resumes from its last checkpoint. Without a store, the Dataset (with block
     snapshots if ``run.snapshot_every`` > 0) is built in memory. ``progress`` shows a
-    progress bar (simulated time, slip, events/s, ETA).
+    progress bar (simulated time, slip, events/s, ETA), preceded on stderr by
+    :data:`COMPILING` when the kernels are not in Numba's cache yet.
     """
     scenario = resolve_seed(scenario, seed)
+    if progress and not cached(advance_to_sample):
+        print(COMPILING.format(minutes=COMPILE_MINUTES), file=sys.stderr, flush=True)
     run = Run(scenario)
     writer = RunStore(store) if store is not None else None
     interval = FLUSH_SECONDS if flush_seconds is None else flush_seconds
@@ -397,28 +419,30 @@ def simulate(
     )
     started = wallclock.perf_counter()
     events_at_start = int(run.state.events.sum())
-    while not run.done:
-        sample = run.step_to_next_sample()
-        samples.append(sample)
-        if every and (run.next_sample - 1) % every == 0:
-            snaps.append(run.snapshot())
-        bar.update(sample["time"] - bar.n)
-        rate = (sample["n_events"] - events_at_start) / max(
-            wallclock.perf_counter() - started, 1e-9
-        )
-        bar.set_postfix_str(
-            f"slip {sample['slider_displacement']:.3g} m, {rate:.3g} events/s", refresh=False
-        )
-        now = wallclock.perf_counter()
-        if writer is not None and (run.done or now - last_flush > interval):
-            _flush(run, writer, samples, snaps, fresh, wall_before + now - started)
-            fresh = False
-            samples, snaps = [], []
-            last_flush = now
-        elif writer is None:
-            all_samples.extend(samples)
-            all_snaps.extend(snaps)
-            samples, snaps = [], []
+    with ThreadBudget() as budget:
+        while not run.done:
+            budget.update()
+            sample = run.step_to_next_sample()
+            samples.append(sample)
+            if every and (run.next_sample - 1) % every == 0:
+                snaps.append(run.snapshot())
+            bar.update(sample["time"] - bar.n)
+            rate = (sample["n_events"] - events_at_start) / max(
+                wallclock.perf_counter() - started, 1e-9
+            )
+            bar.set_postfix_str(
+                f"slip {sample['slider_displacement']:.3g} m, {rate:.3g} events/s", refresh=False
+            )
+            now = wallclock.perf_counter()
+            if writer is not None and (run.done or now - last_flush > interval):
+                _flush(run, writer, samples, snaps, fresh, wall_before + now - started)
+                fresh = False
+                samples, snaps = [], []
+                last_flush = now
+            elif writer is None:
+                all_samples.extend(samples)
+                all_snaps.extend(snaps)
+                samples, snaps = [], []
     bar.close()
     if writer is not None:
         writer.update_attrs(complete=True)

@@ -6,6 +6,7 @@ from collections.abc import Callable
 from typing import Any, TypeVar
 
 from numba import njit
+from numba.core.dispatcher import Dispatcher
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -37,3 +38,13 @@ def kernel(
         )(inner)
 
     return wrap if function is None else wrap(function)
+
+
+def cached(dispatcher: Dispatcher) -> bool:
+    """Whether ``dispatcher`` has machine code in Numba's cache for its current source, so
+    that its first call loads rather than compiles (reads the cache index only; any
+    failure to read it counts as not cached)."""
+    try:
+        return bool(dispatcher._cache._cache_file._load_index())
+    except Exception:  # a private Numba API: whatever fails to read counts as cold
+        return False

@@ -1,0 +1,75 @@
+"""Benchmark of the first run (issue 16): ``nanoblock run`` of the built-in quickstart,
+cold (an empty Numba cache: every kernel compiles) and warm (the kernels load from it).
+
+Run: ``python benchmarks/bench_quickstart.py [--busy]``. Each run is a fresh process
+(``python -c "from nanoblock.cli import app; app()" run --quiet``, this source tree first
+on the path) with NUMBA_CACHE_DIR set to a new temporary directory, so the machine's own
+cache is neither used nor touched. Targets on the idle 2-core machine: cold < 30 s,
+warm < 10 s. ``--busy`` also times warm runs while a busy loop holds one core: one thread,
+the default (:class:`nanoblock.threads.ThreadBudget` picks the threads) and two forced
+threads (issue 16: the default is never slower than one thread). Writes
+``benchmarks/results_quickstart.json`` with the load averages before each measurement.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+CLI = "import sys; sys.path.insert(0, sys.argv.pop(1)); from nanoblock.cli import app; app()"
+
+BUSY = "while True: pass"
+
+
+def run_quickstart(cache: Path, threads: int | None = None) -> dict:
+    """Wall time [s] of one ``nanoblock run --quiet`` of the quickstart, and its stderr."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache)}
+    if threads is not None:
+        env["NUMBA_NUM_THREADS"] = str(threads)
+    load = os.getloadavg()
+    with tempfile.TemporaryDirectory() as out:
+        started = time.perf_counter()
+        done = subprocess.run(
+            [sys.executable, "-c", CLI, str(ROOT), "run", "--quiet", "--out", f"{out}/q.zarr"],
+            env=env,
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        wall = time.perf_counter() - started
+    return {"wall": wall, "load_averages": load, "stderr": done.stderr.strip()}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--busy", action="store_true", help="also 1 vs 2 threads, one core busy")
+    args = parser.parse_args()
+    results: dict = {}
+    with tempfile.TemporaryDirectory() as cache:
+        results["cold"] = run_quickstart(Path(cache))
+        results["warm"] = run_quickstart(Path(cache))
+        if args.busy:
+            hog = subprocess.Popen([sys.executable, "-c", BUSY])
+            try:
+                for threads, label in ((1, "1 thread"), (None, "default"), (2, "2 threads")):
+                    results[f"warm, one core busy, {label}"] = run_quickstart(Path(cache), threads)
+            finally:
+                hog.kill()
+    for name, result in results.items():
+        print(f"{name}: {result['wall']:.1f} s (load averages {result['load_averages']})")
+    results["cold"]["target"], results["warm"]["target"] = "< 30 s idle", "< 10 s idle"
+    results["timestamp"] = time.strftime("%Y-%m-%d %H:%M")
+    results["cpu_count"] = os.cpu_count()
+    (ROOT / "benchmarks" / "results_quickstart.json").write_text(json.dumps(results, indent=2))
+
+
+if __name__ == "__main__":
+    main()
