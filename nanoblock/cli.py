@@ -197,13 +197,24 @@ def _place_figure(rendered: Path, target: Path, store: Path) -> Path:
     return target
 
 
-def _output_directory(out: Path, option: str = "--out") -> None:
-    """Refuse an output directory that is an existing file (or lies under one)."""
+def _output_directory(out: Path, option: str = "--out", writes: tuple[str, ...] = ()) -> None:
+    """Refuse an output directory that is an existing file (or lies under one) and, when
+    the command ``writes`` these file names, one that holds anything else (a user's
+    files are never overwritten; a previous output of the same command is)."""
     for path in (out, *out.parents):
         if path.exists():
             if not path.is_dir():
                 _fail(f"{path}: {option} {out} needs a directory there; it is an existing file")
-            return
+            break
+    if writes and out.is_dir():
+        foreign = sorted(p.name for p in out.iterdir() if p.name not in writes)
+        if foreign:
+            _fail(
+                f"{out}: {option} is a directory holding {', '.join(foreign[:3])}"
+                + (" ..." if len(foreign) > 3 else "")
+                + "; nothing was written: it must be a new path, an empty directory or a "
+                f"previous output of this command ({', '.join(writes)})"
+            )
 
 
 def _require_module(module: str, option: str, install: str) -> None:
@@ -399,6 +410,12 @@ def info(
         typer.echo(summarize(opened))
 
 
+FIT_FILES = ("fit.json", "report.md", "fit.png")
+"""What ``nanoblock fit`` writes into --out."""
+DIAGNOSIS_FILES = (
+    "diagnosis.json", "report.md", "fits.png", "residuals.png", "base.toml", "extended.toml",
+)  # fmt: skip
+"""What ``nanoblock diagnose`` writes into --out."""
 WINDOW = typer.Option(
     help="fit window BEFORE,AFTER: load-point travel [m] kept before and after each step "
     "(one run per step, parameters shared), e.g. 5e-5,3e-4"
@@ -457,7 +474,7 @@ def fit(
     from nanoblock.rsf.fit import fit_rsf
     from nanoblock.rsf.report import write_fit
 
-    _output_directory(out)
+    _output_directory(out, writes=FIT_FILES)
     if mcmc:
         _require_module("emcee", "--mcmc", "pip install 'nanoblock[mcmc]'")
     with _bad_input(DataError, ValueError):
@@ -509,7 +526,7 @@ def diagnose(
     from nanoblock.diagnosis.report import write_diagnosis
     from nanoblock.measured import DataError
 
-    _output_directory(out)
+    _output_directory(out, writes=DIAGNOSIS_FILES)
     with _bad_input(DiagnosisError, DataError, ValueError):
         measurement = _windowed(load_for_diagnosis(data, **_xlook(recipe, rows)), window)
         result = diagnose(measurement, progress=progress, workers=workers, simulate=simulate)

@@ -341,3 +341,28 @@ def test_a_store_written_before_checksums_still_opens_and_reports_bad_bytes(tmp_
     chunk = old / "friction_force" / "c" / "0"
     chunk.write_bytes(np.random.default_rng(17).bytes(chunk.stat().st_size))
     refused(tmp_path, ["info", str(old)], "friction_force: samples 0-100 unreadable")
+
+
+@pytest.mark.parametrize("command", ["fit", "diagnose"])
+def test_fit_and_diagnose_keep_a_users_files_and_replace_their_own(tmp_path, command) -> None:
+    """--out holding a user's file is refused before work; a previous output of the same
+    command is replaced."""
+    from tests.rsf_synthetic import record
+
+    rng = np.random.default_rng(4)
+    truth = {"mu0": 0.6, "a": 0.01, "b": 0.013, "dc": 2e-5, "v0": 1e-6}
+    data = record("aging", truth, "velocity_step", 2500.0, rng, n_samples=200)
+    csv = tmp_path / "step.csv"
+    columns = ("time", "mu", "load_point_velocity")
+    table = np.column_stack([data[c].values for c in columns])
+    header = "# stiffness_per_load: 2500\n" + ",".join(columns)
+    np.savetxt(csv, table, delimiter=",", header=header, comments="")
+    folder = tmp_path / "results"
+    folder.mkdir()
+    (folder / "notes.md").write_text("my notes")
+    extra = ["--no-simulate", "--no-progress"] if command == "diagnose" else []
+    refused(tmp_path, [command, str(csv), "--out", str(folder), *extra], "results", "notes.md")
+    own = tmp_path / "own"
+    for _ in range(2):
+        done = CliRunner().invoke(app, [command, str(csv), "--out", str(own), *extra])
+        assert done.exit_code == 0, done.output
