@@ -148,14 +148,20 @@ def notebook_figures(names: list[str], scale: float, out: Path) -> list[str]:
     return skipped
 
 
+def parser() -> argparse.ArgumentParser:
+    """The command line of this script."""
+    parse = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parse.add_argument("--scale", type=float, default=1.0, help="fraction of full size (0-1]")
+    parse.add_argument("--only", action="append", choices=FIGURES, help="figure(s) to make")
+    parse.add_argument("--out", type=Path, default=OUT, help="output directory")
+    return parse
+
+
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scale", type=float, default=1.0, help="fraction of full size (0-1]")
-    parser.add_argument("--only", action="append", choices=FIGURES, help="figure(s) to make")
-    parser.add_argument("--out", type=Path, default=OUT, help="output directory")
-    args = parser.parse_args(argv)
+    parse = parser()
+    args = parse.parse_args(argv)
     if not 0.0 < args.scale <= 1.0:
-        parser.error("--scale must be in (0, 1]")
+        parse.error("--scale must be in (0, 1]")
     names = args.only or list(FIGURES)
     args.out.mkdir(parents=True, exist_ok=True)
     if "quickstart" in names:
