@@ -1,0 +1,218 @@
+"""The README and the documentation show only commands that run and figures that exist.
+
+Every fenced ``bash`` block of README.md and of the documentation pages (in the order of
+``mkdocs.yml``'s nav) is split into commands and each command is run in one scratch
+directory, in document order, at reduced scale:
+
+- ``nanoblock run`` and ``nanoblock sweep``: the scenario file (the built-in quick start
+  when none is given) is replaced by a copy with ``REDUCED_CONTACTS`` contacts;
+- ``nanoblock diagnose``: with ``--no-simulate --workers 1`` (the simulation check is
+  tested in tests/test_diagnosis.py);
+- ``nanoblock fit`` / ``diagnose`` of ``step.csv``: a synthetic laboratory velocity step
+  made by the naive reference integrator (tests/rsf_synthetic.py);
+- a command on a running Dask scheduler (``--scheduler``) cannot run here: it is checked
+  as a valid invocation, every option it uses being one that ``--help`` lists;
+- ``python docs/make_figures.py``: its arguments are parsed; the quick-start figure is
+  made at reduced scale by ``test_figures_script_makes_the_quickstart_figure``;
+- ``python analysis/NAME.py``: the notebook must exist (tests/test_notebooks.py runs
+  every notebook at scale 0.05);
+- ``cp scenarios/...``: copies the repository file;
+- not run: ``pip install`` (this test runs in the installed environment),
+  ``python -m pytest`` (the suite itself) and ``dask scheduler`` / ``dask worker``
+  (long-lived services).
+
+A command of any other kind fails the test, so a new kind must be added here. Fenced
+``toml`` blocks with a ``title="NAME"`` are written to NAME first, and fenced ``python``
+blocks are executed in the same directory, in order.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import re
+import shlex
+import shutil
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from nanoblock.cli import app, default_scenario
+from nanoblock.toml_writer import scenario_toml
+from tests.rsf_synthetic import record, write_csv
+
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+DOCS = ROOT / "docs"
+REDUCED_CONTACTS = 4
+"""Contacts of every simulated scenario in this test (the quick start has 400)."""
+
+FENCE = re.compile(r"^```(\w+)([^\n]*)\n(.*?)^```", re.MULTILINE | re.DOTALL)
+IMAGE = re.compile(r"!\[[^\]]*\]\(([^)\s]+)\)")
+SKIPPED = ("pip install", "python -m pytest", "dask scheduler", "dask worker")
+
+
+def _pages() -> list[Path]:
+    """README.md, then every page of the site in nav order."""
+    config = (ROOT / "mkdocs.yml").read_text()
+    nav = yaml.safe_load(re.sub(r"!!python\S*", "", config))["nav"]
+
+    def walk(entries: list) -> list[str]:
+        found = []
+        for entry in entries:
+            for value in entry.values():
+                found += walk(value) if isinstance(value, list) else [value]
+        return found
+
+    return [README, *(DOCS / page for page in walk(nav))]
+
+
+PAGES = _pages()
+
+
+def _blocks(page: Path) -> list[tuple[str, str, str]]:
+    """(language, info string, body) of each fenced block of a page."""
+    return [match.groups() for match in FENCE.finditer(page.read_text())]
+
+
+def _commands(body: str) -> list[str]:
+    """Shell commands of a bash block: continuations joined, comments and ``&`` dropped,
+    ``a && b`` split."""
+    commands = []
+    for line in body.replace("\\\n", " ").splitlines():
+        line = re.sub(r"\s+#.*$", "", line).strip().removesuffix("&").strip()
+        if line and not line.startswith("#"):
+            commands += [part.strip() for part in line.split("&&")]
+    return commands
+
+
+def _reduced(scenario: Path, work: Path) -> Path:
+    """A copy of a scenario file with REDUCED_CONTACTS contacts."""
+    from nanoblock.coarse.runs import varied
+    from nanoblock.params import load_scenario
+
+    small = varied(load_scenario(scenario), {"interface.n_contacts": REDUCED_CONTACTS})
+    target = work / f"reduced_{scenario.name}"
+    target.write_text(scenario_toml(small))
+    return target
+
+
+def _help_lists_options(args: list[str]) -> None:
+    """``nanoblock SUB --help`` lists every option ``args`` use."""
+    result = CliRunner().invoke(app, [args[0], "--help"], env={"COLUMNS": "200"})
+    assert result.exit_code == 0, result.output
+    for option in (arg.split("=")[0] for arg in args if arg.startswith("--")):
+        assert option in result.output, f"nanoblock {args[0]} has no option {option}"
+
+
+def _nanoblock(args: list[str], work: Path) -> None:
+    if "--scheduler" in args:
+        _help_lists_options(args)
+        return
+    command, rest = args[0], args[1:]
+    if command in ("run", "sweep"):
+        given = rest[0] if rest and not rest[0].startswith("-") else None
+        source = default_scenario() if given is None else work / given
+        if given is not None and not source.exists():
+            source = ROOT / given
+        assert source.exists(), f"scenario {given} not found"
+        reduced = str(_reduced(source, work))
+        rest = [reduced, *rest[1:]] if given is not None else [reduced, *rest]
+        rest.append("--quiet")
+    if command == "diagnose":
+        rest += ["--no-simulate", "--workers", "1", "--no-progress"]
+    result = CliRunner().invoke(app, [command, *rest], catch_exceptions=False)
+    assert result.exit_code == 0, f"nanoblock {' '.join(args)}:\n{result.output}"
+
+
+def _make_figures_parser():
+    spec = importlib.util.spec_from_file_location("make_figures", DOCS / "make_figures.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _run(command: str, work: Path) -> None:
+    if command.startswith(SKIPPED):
+        return
+    words = shlex.split(command)
+    if words[0] == "nanoblock":
+        _nanoblock(words[1:], work)
+    elif words[0] == "cp":
+        shutil.copyfile(ROOT / words[1], work / words[2])
+    elif words[:2] == ["python", "docs/make_figures.py"]:
+        _make_figures_parser().parser().parse_args(words[2:])
+    elif words[0] == "python" and words[1].startswith("analysis/"):
+        assert (ROOT / words[1]).is_file(), words[1]
+    else:
+        raise AssertionError(f"tests/test_docs.py does not know how to check: {command}")
+
+
+@pytest.fixture(scope="module")
+def step_csv(tmp_path_factory) -> Path:
+    """A laboratory-like velocity step (aging law, 1 -> 10 um/s) as ``step.csv``."""
+    params = {"mu0": 0.6, "a": 0.01, "b": 0.012, "dc": 1e-5, "v0": 1e-6}
+    rng = np.random.default_rng(2026)
+    data = record("aging", params, "velocity_step", 1e4, rng, n_samples=600)
+    path = tmp_path_factory.mktemp("data") / "step.csv"
+    return write_csv(data, path, {"stiffness_per_load": 1e4})
+
+
+def test_readme_is_short_and_self_contained() -> None:
+    text = README.read_text()
+    assert len(text.splitlines()) < 150
+    for page in PAGES:
+        assert "../shared" not in page.read_text(), page
+    for cited in ("Proc. Natl. Acad. Sci. USA", "10.1073/pnas.0806174105", "Phys. Rev. B"):
+        assert cited in text
+    assert "10.1103/PhysRevB.60.3928" in text
+
+
+def test_readme_test_command_is_what_ci_runs() -> None:
+    ci = (ROOT / ".ci" / "run").read_text()
+    assert 'pip install -e ".[test]" && python -m pytest -n 2' in README.read_text()
+    assert 'python3 -m pip install -q -e ".[test]" && python3 -m pytest -n 2' in ci
+    assert "mkdocs build --strict" in ci
+
+
+def test_every_command_shown_runs_at_reduced_scale(tmp_path, monkeypatch, step_csv) -> None:
+    shutil.copyfile(step_csv, tmp_path / "step.csv")
+    monkeypatch.chdir(tmp_path)
+    done: set[str] = set()
+    for page in PAGES:
+        for language, info, body in _blocks(page):
+            if language == "toml" and "title=" in info:
+                name = re.search(r'title="([^"]+)"', info).group(1)
+                tomllib.loads(body)
+                (tmp_path / name).write_text(body)
+            elif language == "bash":
+                for command in _commands(body):
+                    if command not in done:
+                        _run(command, tmp_path)
+                        done.add(command)
+            elif language == "python":
+                exec(compile(body, f"{page.name} python block", "exec"), {})
+    assert "nanoblock run --out quickstart.zarr" in done
+
+
+def test_every_figure_referenced_exists_and_is_made_by_the_figures_script() -> None:
+    figures = _make_figures_parser().FIGURES
+    for page in PAGES:
+        for target in IMAGE.findall(page.read_text()):
+            path = (page.parent / target).resolve()
+            assert path.is_file(), f"{page.name}: {target} missing"
+            assert path.parent == DOCS / "figures", f"{page.name}: {target} not in docs/figures"
+            assert path.stem in figures, f"{target} is not made by docs/make_figures.py"
+
+
+def test_figures_script_makes_the_quickstart_figure(tmp_path) -> None:
+    module = _make_figures_parser()
+    module.main(["--only", "quickstart", "--scale", "0.01", "--out", str(tmp_path)])
+    assert (tmp_path / "quickstart.png").stat().st_size > 10_000
+    numbers = json.loads((tmp_path / "quickstart.json").read_text())
+    assert numbers["n_contacts"] == REDUCED_CONTACTS
+    assert numbers["mu_ss_1um_s"] > numbers["mu_ss_10um_s"]  # velocity weakening
