@@ -23,13 +23,13 @@ from tests.tolerances import FORCE_BALANCE_RTOL, MEAN_AGE_RTOL, Z_MAX
 ageing_interface = {"memory_length": 5e-8, "aging_m": 0.05, "aging_time": 1e-3}
 
 
-def soft_protocol(slip: str = "reset", k2: float = 0.0):
+def soft_protocol(slip: str = "reset", k2: float = 0.0, stiffness: float = 2e5):
     """Velocity step, hold and reload on a finite spring, with ageing and renewal."""
     return scenario(
         joint={"slip": slip, "k2": k2},
         interface={**ageing_interface, "n_contacts": 30, "blocks_per_contact": 20},
         loading={
-            "stiffness": 2e5,
+            "stiffness": stiffness,
             "steps": [
                 {"velocity": 1e-6, "displacement": 6e-8},
                 {"velocity": 1e-5, "displacement": 1e-7},
@@ -97,12 +97,12 @@ def test_contact_area_grows_by_eq5_during_a_hold() -> None:
     np.testing.assert_allclose(result.mean_contact_age, result.time, rtol=1e-12)
 
 
-def trajectory_in_subprocess(threads: int, tmp_path) -> xr.Dataset:
+def trajectory_in_subprocess(threads: int, tmp_path, protocol: str) -> xr.Dataset:
     out = tmp_path / f"threads{threads}.nc"
     code = (
         "import sys; sys.path.insert(0, sys.argv[2]);"
         "from tests.test_engine import soft_protocol; from nanoblock.engine import simulate;"
-        "simulate(soft_protocol('chain', 1.0)).to_netcdf(sys.argv[1])"
+        f"simulate(soft_protocol({protocol})).to_netcdf(sys.argv[1])"
     )
     env = {**os.environ, "NUMBA_NUM_THREADS": str(threads)}
     root = os.path.dirname(os.path.dirname(__file__))
@@ -110,9 +110,12 @@ def trajectory_in_subprocess(threads: int, tmp_path) -> xr.Dataset:
     return xr.open_dataset(out).load()
 
 
-def test_same_seed_same_trajectory_with_one_or_two_threads(tmp_path) -> None:
-    one = trajectory_in_subprocess(1, tmp_path)
-    two = trajectory_in_subprocess(2, tmp_path)
+@pytest.mark.parametrize("protocol", ["'chain', 1.0", "'reset', 0.0, 1e12"])
+def test_same_seed_same_trajectory_with_one_or_two_threads(tmp_path, protocol) -> None:
+    """A soft spring with a chain joint, and a stiff frame (K/W = 1e12 1/m) whose steps
+    run to the samples: each contact draws from its own stream, whatever the threads."""
+    one = trajectory_in_subprocess(1, tmp_path, protocol)
+    two = trajectory_in_subprocess(2, tmp_path, protocol)
     for name in SAMPLES:
         np.testing.assert_array_equal(one[name].values, two[name].values, err_msg=name)
 
