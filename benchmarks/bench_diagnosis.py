@@ -53,7 +53,7 @@ def timed(data: xr.Dataset) -> dict:
         "best_implausible": None if result.best is None else result.best.implausible,
         "stick_slip": [event.to_json() for event in result.stick_slip],
         "not_confirmed": result.not_confirmed,
-        "simulation_check": result.simulation_check.get("status"),
+        "simulation_check": result.simulation_check.get("status", "not_run"),
         "dc_growth": result.window_study.get("dc_growth"),
     }
 
