@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import sys
 import time as wallclock
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,7 +28,7 @@ from nanoblock.kernels.contacts import ageing_rate, total_contact_area
 from nanoblock.kernels.layout import PARAMS, SLIDER
 from nanoblock.kernels.rng import seed_streams
 from nanoblock.kernels.stepper import advance_to_sample, following_velocity
-from nanoblock.params import Scenario, ScenarioError, resolve_seed
+from nanoblock.params import Scenario, ScenarioError, requirements, resolve_seed
 from nanoblock.store import SAMPLES, SNAPSHOTS, RunStore, dataset
 from nanoblock.tables import hazard_table, lattice_hazard_table
 from nanoblock.theory.meanfield import MeanFieldJoint, sample_q_stationary
@@ -374,6 +375,28 @@ def _snapshot_dataset(snaps: list[dict[str, np.ndarray]]) -> xr.Dataset:
     return dataset(_concat_snapshots(snaps), SNAPSHOTS, "snapshot_time")
 
 
+def expected_work(scenario: Scenario) -> Callable[[float], float]:
+    """Percentage of a run's expected depinnings done by simulated time t [s]: thermal
+    escapes at the unloaded rate plus one per rho~_max of load-point travel and block
+    (the estimate of :func:`nanoblock.params.requirements`), so a progress bar and its ETA
+    follow the work, not the simulated time (a hold costs little, a fast segment much)."""
+    needs = requirements(scenario)
+    lengths = np.array([step.length for step in scenario.loading.steps])
+    times = np.concatenate([[0.0], np.cumsum(lengths)])
+    travel = np.concatenate(
+        [[0.0], np.cumsum([step.load_velocity * step.length for step in scenario.loading.steps])]
+    )
+    rho_max = scenario.joint.rho_max
+
+    def per_block(t: float) -> float:
+        return needs.thermal_rate * t + float(np.interp(t, times, travel)) / rho_max
+
+    total = per_block(float(times[-1]))
+    if not total > 0.0:
+        return lambda t: 100.0 * t / max(float(times[-1]), 1e-300)
+    return lambda t: 100.0 * per_block(t) / total
+
+
 def simulate(
     scenario: Scenario,
     store: str | Path | None = None,
@@ -389,7 +412,8 @@ def simulate(
     :data:`FLUSH_SECONDS`); if the store holds an unfinished run of the same scenario, the
     run resumes from its last checkpoint. Without a store, the Dataset (with block
     snapshots if ``run.snapshot_every`` > 0) is built in memory. ``progress`` shows a
-    progress bar (simulated time, slip, events/s, ETA), preceded on stderr by
+    progress bar (share of the expected depinnings done, slider slip since the run or its
+    resume started, events/s, and an ETA from the work done), preceded on stderr by
     :data:`COMPILING` when the kernels are not in Numba's cache yet.
     """
     scenario = resolve_seed(scenario, seed)
@@ -409,16 +433,17 @@ def simulate(
     all_samples: list[dict[str, Any]] = []
     all_snaps: list[dict[str, np.ndarray]] = []
     last_flush = wallclock.perf_counter()
+    work = expected_work(scenario)
     bar = tqdm(
-        total=float(scenario.total_time),
-        initial=run.simulated_time,
-        unit="s sim",
+        total=100.0,
+        initial=work(run.simulated_time),
         disable=not progress,
         leave=False,
-        bar_format="{l_bar}{bar}| {n:.3g}/{total:.3g} s simulated [{elapsed}<{remaining}{postfix}]",
+        bar_format="{l_bar}{bar}| {n:.0f}% of the work [{elapsed}<{remaining}{postfix}]",
     )
     started = wallclock.perf_counter()
     events_at_start = int(run.state.events.sum())
+    origin = None
     with ThreadBudget() as budget:
         while not run.done:
             budget.update()
@@ -426,13 +451,13 @@ def simulate(
             samples.append(sample)
             if every and (run.next_sample - 1) % every == 0:
                 snaps.append(run.snapshot())
-            bar.update(sample["time"] - bar.n)
+            bar.update(work(sample["time"]) - bar.n)
             rate = (sample["n_events"] - events_at_start) / max(
                 wallclock.perf_counter() - started, 1e-9
             )
-            bar.set_postfix_str(
-                f"slip {sample['slider_displacement']:.3g} m, {rate:.3g} events/s", refresh=False
-            )
+            origin = sample["slider_displacement"] if origin is None else origin
+            slip = sample["slider_displacement"] - origin
+            bar.set_postfix_str(f"slip {slip:.3g} m, {rate:.3g} events/s", refresh=False)
             now = wallclock.perf_counter()
             if writer is not None and (run.done or now - last_flush > interval):
                 _flush(run, writer, samples, snaps, fresh, wall_before + now - started)

@@ -289,3 +289,23 @@ def test_progress_says_when_kernels_compile(capsys, monkeypatch) -> None:
     assert "compiling kernels (once after install)" in capsys.readouterr().err
     simulate(run)
     assert "compiling" not in capsys.readouterr().err
+
+
+def test_progress_follows_the_expected_work_not_the_simulated_time(make_scenario) -> None:
+    """The bar's work measure is 0 at the start and 100 % at the end, grows with load-point
+    travel at the ramp's slope (one depinning per rho~_max per block), and stands still
+    during a hold of the reference joint (u = 50: thermal escape negligible)."""
+    from nanoblock.engine import expected_work
+
+    steps = [
+        {"velocity": 1e-6, "displacement": 1e-8},
+        {"hold": 5.0},
+        {"velocity": 1e-5, "displacement": 3e-8},
+    ]
+    scenario = make_scenario(loading={"stiffness": float("inf"), "steps": steps})
+    work = expected_work(scenario)
+    hold_start, hold_end, end = 1e-2, 5.01, 5.013
+    assert work(0.0) == 0.0 and work(end) == pytest.approx(100.0)
+    assert work(hold_start) == pytest.approx(25.0)
+    assert work(hold_end) - work(hold_start) < 1e-6
+    assert work(hold_end + 1.5e-3) == pytest.approx(62.5)
