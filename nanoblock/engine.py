@@ -27,7 +27,7 @@ from nanoblock.kernels.chain import reduced_stresses
 from nanoblock.kernels.contacts import ageing_rate, total_contact_area
 from nanoblock.kernels.layout import PARAMS, SLIDER
 from nanoblock.kernels.rng import seed_streams
-from nanoblock.kernels.stepper import advance_to_sample, following_velocity
+from nanoblock.kernels.stepper import advance_to_sample
 from nanoblock.params import Scenario, ScenarioError, requirements, resolve_seed
 from nanoblock.store import SAMPLES, SNAPSHOTS, RunStore, dataset
 from nanoblock.tables import hazard_table, lattice_hazard_table
@@ -45,8 +45,7 @@ COMPILE_MINUTES = 1.5
 (``benchmarks/bench_quickstart.py``), rounded up [min]."""
 
 TRANSIENT_FORCE_STEP = 0.005
-"""epsilon: in transients the drive mismatch changes the force by at most epsilon alpha F
-per internal step."""
+"""epsilon: in transients one internal step changes the force by at most epsilon alpha F."""
 
 FLUSH_SECONDS = 5.0
 """Default wall time [s] between flushes of samples, checkpoint and progress attrs to the
@@ -207,16 +206,11 @@ def initial_state(
     events = np.zeros(shape[0], dtype=np.int64)
     state = InterfaceState(y, h, age, slip, lifetime, events, streams)
     slider = state.slider[0]
+    slider["velocity"] = scenario.loading.steps[0].load_velocity
     area = total_contact_area(age, params[0])
     forces = (area * sigma_a * y[k::n_classes].mean() for k, (sigma_a, _) in enumerate(strength))
     slider["force"] = sum(forces) / n_classes
     slider["stiffness"] = area * strength[0, 0] / strength[0, 1]
-    if scenario.run.initial_state == "steady":
-        # steady sliding: the depinnings carry the slider beyond the pinned response
-        load_velocity = scenario.loading.steps[0].load_velocity
-        stiffness = scenario.loading.stiffness
-        following = following_velocity(load_velocity, float(slider["stiffness"]), stiffness)
-        slider["drift"] = load_velocity - following
     if np.isfinite(scenario.loading.stiffness):
         # start in balance: the drive spring already carries the initial interface force
         slider["load_point"] = 0.0
@@ -277,7 +271,7 @@ class Run:
         if self.next_sample:
             velocity = (position - self.last_position) / interval
         else:
-            velocity = self.scenario.loading.steps[0].load_velocity
+            velocity = float(slider["velocity"])
         self.last_position = position
         self.next_sample += 1
         force = float(slider["force"])

@@ -386,8 +386,8 @@ class Run(_Section):
     initial_state: Literal["unloaded", "steady"] = Field("unloaded")
     step_slip: Positive | None = Field(
         None,
-        description="slider slip per internal step driven by depinnings, beyond the pinned "
-        "interface's exact elastic response [m]; default rho~_max",
+        description="slider slip per internal step [m]; default rho~_max / 4 with a finite "
+        "spring, unlimited with a rigid one",
     )
     snapshot_every: Count = Field(0, ge=0, description="store block snapshots every N samples")
 
@@ -418,15 +418,14 @@ class Scenario(_Section):
 
     @property
     def step_slip(self) -> float:
-        """Resolved depinning-driven slider slip per internal step [m].
+        """Resolved slider slip per internal step [m].
 
-        Between depinnings the slider follows the load point in closed form; only the
-        slip the depinnings drive is predicted, one step ahead (:mod:`nanoblock.kernels.
-        stepper`), so only it is bounded. A stiff or rigid drive leaves little or none,
-        and its steps run to the next sample or segment end."""
+        A finite spring needs short steps (the slider's velocity is predicted from the
+        previous step); a rigid one (K = inf) prescribes the slider path, so the blocks'
+        exact ramps run uninterrupted to the next sample or segment end (inf)."""
         if self.run.step_slip is not None:
             return self.run.step_slip
-        return self.joint.rho_max
+        return np.inf if self.loading.stiffness == np.inf else self.joint.rho_max / 4
 
     def with_seed(self, seed: int) -> Scenario:
         """Copy of the scenario with ``run.seed`` set."""
