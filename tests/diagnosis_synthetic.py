@@ -204,15 +204,21 @@ def _area(velocity: np.ndarray, m: float, memory: float, effect: str, extra: flo
     return 1.0 + m * (np.log(mean_age / tau) - EULER_GAMMA)
 
 
-def steady_case(effect: str, rng: np.random.Generator, noise: float) -> xr.Dataset:
+def steady_case(
+    effect: str,
+    rng: np.random.Generator,
+    noise: float,
+    temperatures: tuple[float, ...] | None = None,
+) -> xr.Dataset:
     """A steady-state table over 10 decades of velocity (several temperatures when the
-    effect is joint softening), with ``effect`` (or ``none``) switched on."""
+    effect is joint softening, or at ``temperatures`` [K] whatever the effect), with
+    ``effect`` (or ``none``) switched on."""
     u_ref = rng.uniform(25.0, 50.0)
     v_attempt = math.exp(rng.uniform(math.log(30.0), math.log(3000.0)))
     memory, m = 1e-6 * rng.uniform(0.2, 2.0), rng.uniform(0.0, 0.03)
     scale = rng.uniform(0.3, 0.5)
     velocity = np.logspace(-10.0, 0.5, 36)
-    temperatures = [293.0]
+    layout = list(temperatures or [293.0])
     barrier, spread, extra, ratio = "persson", 0.0, 0.0, None
     t_ref, t_glass, drop = 293.0, 383.0, 0.0
     if effect == "barrier_shape":
@@ -222,19 +228,19 @@ def steady_case(effect: str, rng: np.random.Generator, noise: float) -> xr.Datas
     elif effect == "strength_heterogeneity":
         spread = rng.uniform(0.25, 0.5)
     elif effect == "joint_softening":
-        temperatures, drop = [293.0, 323.0, 353.0], rng.uniform(0.25, 0.5)
+        layout, drop = list(temperatures or [293.0, 323.0, 353.0]), rng.uniform(0.25, 0.5)
     elif effect == "velocity_saturation":
         extra = memory / (v_attempt * math.exp(rng.uniform(-16.0, -10.0)))  # tau_m
     elif effect == "state_velocity_cutoff":
         extra = v_attempt * math.exp(rng.uniform(-19.0, -14.0))  # v_theta
     elif effect != "none":
         raise ValueError(effect)
-    if len(temperatures) > 1:
+    if len(layout) > 1:
         velocity = np.logspace(-9.0, 0.5, 16)
     quantiles = norm.ppf((np.arange(64) + 0.5) / 64) if spread else np.zeros(1)
     strengths = np.exp(spread * quantiles - 0.5 * spread**2)
     rows = []
-    for temperature in temperatures:
+    for temperature in layout:
         # sigma_a falls linearly to (1 - drop) of its value between T_ref and T_g
         soft = 1.0 - drop * (temperature - t_ref) / (t_glass - t_ref)
         stress = np.zeros(velocity.size)
@@ -246,7 +252,7 @@ def steady_case(effect: str, rng: np.random.Generator, noise: float) -> xr.Datas
     table = np.concatenate(rows)
     mu = table[:, 2] + noise * rng.standard_normal(table.shape[0])
     columns = {"load_point_velocity": table[:, 0], "mu": mu}
-    if len(temperatures) > 1:
+    if len(layout) > 1:
         columns["temperature"] = table[:, 1]
     return _dataset(columns, "steady_state", apparatus="spring_slider")
 
