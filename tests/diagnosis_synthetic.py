@@ -5,8 +5,10 @@ steady tables from a brute-force quadrature of Q_st on a fine grid (001/Eqs. 27-
 ageing averaged exactly over exponentially distributed contact ages (001/Eqs. 3, 5), the
 strength spread sampled on 64 quantiles and the softening given by a linear fall of
 sigma_a towards T_g (not the surrogates' forms); clamped-sample curves from a Radau
-integration of 000/Eqs. 9-14 in natural variables. Each case picks an effect (or none)
-and its parameters from the generator's random stream; the diagnosis sees only the data.
+integration of 000/Eqs. 9-14 in natural variables. Each case draws its parameters from
+the generator's random stream; the diagnosis sees only the data. The acceptance matrix
+(``tests/hidden_matrix.py``) takes its steady tables and ramps from here and its time
+series from the renewal picture (``tests/renewal_synthetic.py``).
 """
 
 from __future__ import annotations
@@ -23,13 +25,6 @@ from scipy.stats import norm
 from nanoblock.measured import COLUMNS
 from tests.naive_rsf import naive_slider
 
-TIME_SERIES_EFFECTS = (
-    "slip_trend",
-    "aging_rate",
-    "state_velocity_cutoff",
-    "velocity_saturation",
-    "load_dependent_dc",
-)
 STEADY_EFFECTS = (
     "barrier_shape",
     "back_jumps",
@@ -38,7 +33,6 @@ STEADY_EFFECTS = (
     "velocity_saturation",
     "state_velocity_cutoff",
 )
-CLAMPED_EFFECTS = ("load_dependent_dc", "aging_rate")
 EULER_GAMMA = 0.5772156649015329
 
 
@@ -335,26 +329,7 @@ def clamped_case(
     return _dataset(merged, "clamped_sample", apparatus="clamped_sample", **SILICON_APPARATUS)
 
 
-# ------------------------------------------------------------------ the hidden cases
+# ------------------------------------------------------------------ noise
 
 NOISE = {"time_series": 2e-4, "steady_state": 2e-4, "clamped_sample": 2e-9}
 """White noise of each kind: mu for friction, metres for the sample extension s."""
-
-
-def hidden_case(rng: np.random.Generator, with_effect: bool) -> tuple[str, xr.Dataset]:
-    """One case: a kind of data, and an effect drawn from the catalogue entries that kind
-    can show (or ``none``), with its data. Returns (truth, data)."""
-    kind = rng.choice(["time_series", "steady_state", "clamped_sample"], p=[0.45, 0.4, 0.15])
-    effects = {
-        "time_series": TIME_SERIES_EFFECTS,
-        "steady_state": STEADY_EFFECTS,
-        "clamped_sample": CLAMPED_EFFECTS,
-    }[kind]
-    effect = str(rng.choice(effects)) if with_effect else "none"
-    noise = NOISE[kind] * rng.uniform(0.7, 1.4)
-    maker = {
-        "time_series": time_series_case,
-        "steady_state": steady_case,
-        "clamped_sample": clamped_case,
-    }[kind]
-    return effect, maker(effect, rng, noise)
