@@ -53,6 +53,10 @@ TEMPERATURES = (293.0, 323.0, 353.0)
 RENEWAL_B, RENEWAL_DC = 0.86, 0.5
 """Aging-law B / b and D_c / D of the renewal relaxation (``naive_rsf.renewal_fit_bias``):
 the stiffness is chosen against these effective values."""
+BASE_TAU = 1e-6
+"""tau_m of the effect-free picture [D / v1]: V_sat = 1e6 v1, so the saturation term
+~ (tau_m V / D) ln(D / (tau_m V)) ~ 1e-4 at 10 v1 moves mu by ~1e-6 (1e-3 would put a
+velocity saturation of ~5e-4 in every record)."""
 COLOURED_SHARE = 1.0 / 3.0
 """Share of time series with AR(1) noise (lag-1 autocorrelation 0.5-0.9)."""
 
@@ -96,7 +100,7 @@ def time_series(effect: str, rng: np.random.Generator) -> tuple[xr.Dataset, xr.D
     a = rng.uniform(0.006, 0.015)
     b = a + rng.uniform(-0.003, 0.005)
     d0 = math.exp(rng.uniform(math.log(1e-5), math.log(8e-5)))
-    p = {"mu0": rng.uniform(0.5, 0.7), "a": a, "b": b, "d0": d0, "tau_m": 1e-3 * d0 / v1}
+    p = {"mu0": rng.uniform(0.5, 0.7), "a": a, "b": b, "d0": d0, "tau_m": BASE_TAU * d0 / v1}
     sigma = NOISE["time_series"] * rng.uniform(0.7, 1.4)
     phi = rng.uniform(0.5, 0.9) if rng.random() < COLOURED_SHARE else 0.0
     k_stated = (3 * max(RENEWAL_B * b - a, 0.0) + 0.6 * a) / (RENEWAL_DC * d0)
