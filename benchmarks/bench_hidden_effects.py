@@ -2,10 +2,11 @@
 show, ``PER_EFFECT`` cases each, and effect-free cases, diagnosed on 2 processes
 (``tests/hidden_matrix.py``: cases, the expected-answer rule, rates and bounds).
 
-Run: ``python benchmarks/bench_hidden_effects.py [PER_EFFECT [NONE_PER_KIND]]`` (8 and 8
-by default). Writes ``benchmarks/results_hidden_effects.json`` after every case (with
-``complete`` false until the matrix is done: a stopped run still leaves a stratified
-prefix) and prints the markdown confusion matrix.
+Run: ``python benchmarks/bench_hidden_effects.py [PER_EFFECT [NONE_PER_KIND [KIND ...]]]``
+(8, 8 and every kind by default). Writes ``benchmarks/results_hidden_effects.json`` (with
+KINDs: ``results_hidden_effects_<KIND>...json``) after every case, ``complete`` false
+until the matrix is done (a stopped run still leaves a stratified prefix), and prints the
+markdown confusion matrix.
 """
 
 from __future__ import annotations
@@ -22,15 +23,22 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from tests.hidden_matrix import VISIBLE_CHI2, cases, markdown, run_case, summary  # noqa: E402
-
-OUT = ROOT / "benchmarks" / "results_hidden_effects.json"
+from tests.hidden_matrix import (  # noqa: E402
+    KINDS,
+    VISIBLE_CHI2,
+    cases,
+    markdown,
+    run_case,
+    summary,
+)
 
 
 def main() -> None:
     per_effect = int(sys.argv[1]) if len(sys.argv) > 1 else 8
     none_per_kind = int(sys.argv[2]) if len(sys.argv) > 2 else per_effect
-    matrix = cases(per_effect, none_per_kind)
+    kinds = sys.argv[3:]
+    matrix = [case for case in cases(per_effect, none_per_kind) if case.kind in (kinds or KINDS)]
+    out = ROOT / "benchmarks" / "_".join(["results_hidden_effects", *kinds])
     started = time.perf_counter()
     header = {
         "machine": platform.platform(),
@@ -63,7 +71,7 @@ def main() -> None:
                 **summary(results),
                 "cases": results,
             }
-            OUT.write_text(json.dumps(report, indent=1) + "\n")
+            out.with_suffix(".json").write_text(json.dumps(report, indent=1) + "\n")
     print(markdown(report["confusion"]))
 
 
