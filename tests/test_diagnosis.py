@@ -167,7 +167,7 @@ def test_hidden_effects_are_found() -> None:
     every effect every kind of data can show and two effect-free cases per kind, each with
     its answer fixed before the diagnosis by the noiseless base-fit chi^2 rule; at most
     DRAW_MAX_MISSES wrong verdicts. Battery: a three-load renewal time series takes more
-    than 6 min of CPU to diagnose (2026-11-25, load 10-12 on 2 cores), so the 10 of them
+    than 20 min of CPU to diagnose (2026-11-25, 2 shared cores), so the 10 of them
     exceed the 10-minute budget of a slow test (tests/README.md)."""
     with ProcessPoolExecutor(max_workers=2) as pool:  # the machine's 2 cores
         results = list(pool.map(run_case, DRAW_CASES))
