@@ -5,8 +5,10 @@ steady tables from a brute-force quadrature of Q_st on a fine grid (001/Eqs. 27-
 ageing averaged exactly over exponentially distributed contact ages (001/Eqs. 3, 5), the
 strength spread sampled on 64 quantiles and the softening given by a linear fall of
 sigma_a towards T_g (not the surrogates' forms); clamped-sample curves from a Radau
-integration of 000/Eqs. 9-14 in natural variables. Each case picks an effect (or none)
-and its parameters from the generator's random stream; the diagnosis sees only the data.
+integration of 000/Eqs. 9-14 in natural variables. Each case draws its parameters from
+the generator's random stream; the diagnosis sees only the data. The acceptance matrix
+(``tests/hidden_matrix.py``) takes its steady tables and ramps from here and its time
+series from the renewal picture (``tests/renewal_synthetic.py``).
 """
 
 from __future__ import annotations
@@ -23,13 +25,6 @@ from scipy.stats import norm
 from nanoblock.measured import COLUMNS
 from tests.naive_rsf import naive_slider
 
-TIME_SERIES_EFFECTS = (
-    "slip_trend",
-    "aging_rate",
-    "state_velocity_cutoff",
-    "velocity_saturation",
-    "load_dependent_dc",
-)
 STEADY_EFFECTS = (
     "barrier_shape",
     "back_jumps",
@@ -38,7 +33,6 @@ STEADY_EFFECTS = (
     "velocity_saturation",
     "state_velocity_cutoff",
 )
-CLAMPED_EFFECTS = ("load_dependent_dc", "aging_rate")
 EULER_GAMMA = 0.5772156649015329
 
 
@@ -204,15 +198,21 @@ def _area(velocity: np.ndarray, m: float, memory: float, effect: str, extra: flo
     return 1.0 + m * (np.log(mean_age / tau) - EULER_GAMMA)
 
 
-def steady_case(effect: str, rng: np.random.Generator, noise: float) -> xr.Dataset:
+def steady_case(
+    effect: str,
+    rng: np.random.Generator,
+    noise: float,
+    temperatures: tuple[float, ...] | None = None,
+) -> xr.Dataset:
     """A steady-state table over 10 decades of velocity (several temperatures when the
-    effect is joint softening), with ``effect`` (or ``none``) switched on."""
+    effect is joint softening, or at ``temperatures`` [K] whatever the effect), with
+    ``effect`` (or ``none``) switched on."""
     u_ref = rng.uniform(25.0, 50.0)
     v_attempt = math.exp(rng.uniform(math.log(30.0), math.log(3000.0)))
     memory, m = 1e-6 * rng.uniform(0.2, 2.0), rng.uniform(0.0, 0.03)
     scale = rng.uniform(0.3, 0.5)
     velocity = np.logspace(-10.0, 0.5, 36)
-    temperatures = [293.0]
+    layout = list(temperatures or [293.0])
     barrier, spread, extra, ratio = "persson", 0.0, 0.0, None
     t_ref, t_glass, drop = 293.0, 383.0, 0.0
     if effect == "barrier_shape":
@@ -222,19 +222,19 @@ def steady_case(effect: str, rng: np.random.Generator, noise: float) -> xr.Datas
     elif effect == "strength_heterogeneity":
         spread = rng.uniform(0.25, 0.5)
     elif effect == "joint_softening":
-        temperatures, drop = [293.0, 323.0, 353.0], rng.uniform(0.25, 0.5)
+        layout, drop = list(temperatures or [293.0, 323.0, 353.0]), rng.uniform(0.25, 0.5)
     elif effect == "velocity_saturation":
         extra = memory / (v_attempt * math.exp(rng.uniform(-16.0, -10.0)))  # tau_m
     elif effect == "state_velocity_cutoff":
         extra = v_attempt * math.exp(rng.uniform(-19.0, -14.0))  # v_theta
     elif effect != "none":
         raise ValueError(effect)
-    if len(temperatures) > 1:
+    if len(layout) > 1:
         velocity = np.logspace(-9.0, 0.5, 16)
     quantiles = norm.ppf((np.arange(64) + 0.5) / 64) if spread else np.zeros(1)
     strengths = np.exp(spread * quantiles - 0.5 * spread**2)
     rows = []
-    for temperature in temperatures:
+    for temperature in layout:
         # sigma_a falls linearly to (1 - drop) of its value between T_ref and T_g
         soft = 1.0 - drop * (temperature - t_ref) / (t_glass - t_ref)
         stress = np.zeros(velocity.size)
@@ -246,7 +246,7 @@ def steady_case(effect: str, rng: np.random.Generator, noise: float) -> xr.Datas
     table = np.concatenate(rows)
     mu = table[:, 2] + noise * rng.standard_normal(table.shape[0])
     columns = {"load_point_velocity": table[:, 0], "mu": mu}
-    if len(temperatures) > 1:
+    if len(layout) > 1:
         columns["temperature"] = table[:, 1]
     return _dataset(columns, "steady_state", apparatus="spring_slider")
 
@@ -329,26 +329,7 @@ def clamped_case(
     return _dataset(merged, "clamped_sample", apparatus="clamped_sample", **SILICON_APPARATUS)
 
 
-# ------------------------------------------------------------------ the hidden cases
+# ------------------------------------------------------------------ noise
 
 NOISE = {"time_series": 2e-4, "steady_state": 2e-4, "clamped_sample": 2e-9}
 """White noise of each kind: mu for friction, metres for the sample extension s."""
-
-
-def hidden_case(rng: np.random.Generator, with_effect: bool) -> tuple[str, xr.Dataset]:
-    """One case: a kind of data, and an effect drawn from the catalogue entries that kind
-    can show (or ``none``), with its data. Returns (truth, data)."""
-    kind = rng.choice(["time_series", "steady_state", "clamped_sample"], p=[0.45, 0.4, 0.15])
-    effects = {
-        "time_series": TIME_SERIES_EFFECTS,
-        "steady_state": STEADY_EFFECTS,
-        "clamped_sample": CLAMPED_EFFECTS,
-    }[kind]
-    effect = str(rng.choice(effects)) if with_effect else "none"
-    noise = NOISE[kind] * rng.uniform(0.7, 1.4)
-    maker = {
-        "time_series": time_series_case,
-        "steady_state": steady_case,
-        "clamped_sample": clamped_case,
-    }[kind]
-    return effect, maker(effect, rng, noise)

@@ -1,0 +1,79 @@
+"""The hidden-effect acceptance matrix (issue 15): every effect each kind of data can
+show, ``PER_EFFECT`` cases each, and effect-free cases, diagnosed on 2 processes
+(``tests/hidden_matrix.py``: cases, the expected-answer rule, rates and bounds).
+
+Run: ``python benchmarks/bench_hidden_effects.py [PER_EFFECT [NONE_PER_KIND [KIND ...]]]``
+(8, 8 and every kind by default). Writes ``benchmarks/results_hidden_effects.json`` (with
+KINDs: ``results_hidden_effects_<KIND>...json``) after every case, ``complete`` false
+until the matrix is done (a stopped run still leaves a stratified prefix), and prints the
+markdown confusion matrix.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import os
+import platform
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from tests.hidden_matrix import (  # noqa: E402
+    KINDS,
+    VISIBLE_CHI2,
+    cases,
+    markdown,
+    run_case,
+    summary,
+)
+
+
+def main() -> None:
+    per_effect = int(sys.argv[1]) if len(sys.argv) > 1 else 8
+    none_per_kind = int(sys.argv[2]) if len(sys.argv) > 2 else per_effect
+    kinds = sys.argv[3:]
+    matrix = [case for case in cases(per_effect, none_per_kind) if case.kind in (kinds or KINDS)]
+    out = ROOT / "benchmarks" / "_".join(["results_hidden_effects", *kinds])
+    started = time.perf_counter()
+    header = {
+        "machine": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
+        "cpus": os.cpu_count(),
+        "load_average_at_start": os.getloadavg(),
+        "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "per_effect": per_effect,
+        "none_per_kind": none_per_kind,
+        "visible_chi2": VISIBLE_CHI2,
+        "planned_cases": len(matrix),
+    }
+    results = []
+    with ProcessPoolExecutor(2) as pool:
+        futures = [pool.submit(run_case, case) for case in matrix]
+        for future in as_completed(futures):
+            result = future.result()
+            results.append(result)
+            print(
+                f"{result['kind']:15s} {result['effect']:22s} #{result['index']} expected "
+                f"{result['expected']:22s} -> {result['verdict']:22s} "
+                f"{result['cpu_seconds']:6.1f} s",
+                flush=True,
+            )
+            report = {
+                **header,
+                "complete": len(results) == len(matrix),
+                "wall_seconds": time.perf_counter() - started,
+                "load_average_now": os.getloadavg(),
+                **summary(results),
+                "cases": results,
+            }
+            out.with_suffix(".json").write_text(json.dumps(report, indent=1) + "\n")
+    print(markdown(report["confusion"]))
+
+
+if __name__ == "__main__":
+    main()
