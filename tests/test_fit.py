@@ -224,3 +224,23 @@ def test_clamped_sample_curves_are_fitted_across_normal_forces(tmp_path) -> None
     for key in ("b", "dc", "theta_star"):
         assert abs(result.params[key] - truth[key]) < z_bound(3) * result.stderr[key], key
     assert result.rms_residual == pytest.approx(1e-9, rel=0.3)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [("constant", "is constant"), ("negative", ">= 0"), ("one_velocity", "one value")],
+)
+def test_degenerate_data_is_refused_not_fitted(change: str, message: str) -> None:
+    """A constant signal, negative friction or a single load-point velocity is refused
+    with a DataError naming the column, instead of a fit with meaningless parameters."""
+    rng = np.random.default_rng(2)
+    truth = {"mu0": 0.6, "a": 0.01, "b": 0.013, "dc": 2e-5, "v0": 1e-6}
+    data = record("aging", truth, "velocity_step", 2500.0, rng, n_samples=200)
+    if change == "constant":
+        data["mu"] = ("sample", np.full(data.sizes["sample"], 0.6))
+    elif change == "negative":
+        data["mu"] = ("sample", data["mu"].values - 1.0)
+    else:
+        data["load_point_velocity"] = ("sample", np.full(data.sizes["sample"], 1e-6))
+    with pytest.raises(DataError, match=message):
+        fit_rsf(data, "aging", stiffness=2500.0)

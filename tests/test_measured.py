@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from nanoblock.cli import app
@@ -241,3 +243,40 @@ def test_unreadable_or_incomplete_files_name_the_file(tmp_path, content, message
         warnings.simplefilter("ignore")
         load_measurement(path)
     assert str(path) in str(error.value)
+
+
+NAMES = ["time", "mu", "load_point_velocity", "load_point_displacement", "run", "x"]
+CELLS = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True, width=32),
+    st.sampled_from(["", "nan", "inf", "-1e400", "abc", "1,5", " 2 "]),
+)
+
+
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    columns=st.lists(
+        st.sampled_from(NAMES),
+        min_size=1, max_size=5, unique=True,
+    ),
+    rows=st.lists(st.lists(CELLS, min_size=5, max_size=5), min_size=0, max_size=12),
+)  # fmt: skip
+def test_any_csv_table_is_read_with_finite_values_or_refused_by_name(
+    tmp_path, columns, rows
+) -> None:
+    """Generated CSV tables: the reader returns finite required columns, or a DataError
+    that names the file (never another exception, never NaN)."""
+    path = tmp_path / "table.csv"
+    lines = [",".join(columns)] + [",".join(str(c) for c in row[: len(columns)]) for row in rows]
+    path.write_text("\n".join(lines) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            data = load_measurement(path)
+        except DataError as error:
+            assert "table.csv" in str(error)
+            return
+    for name in ("time", "mu", "load_point_velocity"):
+        if name in data:
+            assert np.all(np.isfinite(data[name].values)), name

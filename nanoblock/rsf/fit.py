@@ -679,6 +679,35 @@ def split_by_force(data: xr.Dataset) -> list[xr.Dataset]:
     return [data.isel(sample=force == value) for value in dict.fromkeys(force)]
 
 
+def _check_fittable(data: xr.Dataset) -> None:
+    """Refuse data a rate-and-state fit cannot say anything about, naming the column:
+    non-finite or negative friction, a constant signal, or (time series) a load point that
+    never changes velocity."""
+    source = data.attrs.get("source_file", "the data")
+    name = "s" if data.attrs.get("kind") == "clamped_sample" else "mu"
+    if name not in data:
+        return
+    signal = np.asarray(data[name].values, dtype=float)
+    bad = np.flatnonzero(~np.isfinite(signal) | ((signal < 0.0) if name == "mu" else False))
+    if bad.size:
+        raise DataError(
+            f"{source}: column {name!r} has {signal[bad[0]]!r} at data row {bad[0] + 1}; a fit "
+            "needs finite friction >= 0"
+        )
+    if np.ptp(signal) == 0.0:
+        raise DataError(
+            f"{source}: column {name!r} is constant ({signal[0]!r}): there is no rate or state "
+            "effect to fit"
+        )
+    if data.attrs.get("kind") == "time_series" and "load_point_velocity" in data:
+        moving = np.unique(data["load_point_velocity"].values)
+        if moving.size < 2:
+            raise DataError(
+                f"{source}: column 'load_point_velocity' takes one value ({moving[0]!r} m/s): "
+                "a rate-and-state fit needs a velocity step, a hold or several velocities"
+            )
+
+
 def fit_rsf(
     data: xr.Dataset,
     law_name: str = "aging",
@@ -720,6 +749,7 @@ def fit_rsf(
         raise ValueError(f"method {method!r} is not one of 'lsq', 'mcmc'")
     kind = data.attrs.get("kind")
     initial = dict(initial or {})
+    _check_fittable(data)
     options = _Options(fit_stiffness, initial_state)
     if kind == "time_series":
         setup = _time_series_setup(
