@@ -106,6 +106,8 @@ def _bad_input(*errors: type[Exception]) -> Iterator[None]:
 
 def _open_store(path: Path) -> RunStore:
     """The run store at ``path``, refused unless it is one whose metadata can be read."""
+    if not path.exists():
+        _fail(f"{path}: does not exist; give a run store (zarr directory)")
     store = RunStore(path)
     if not store.exists():
         _fail(f"{path}: not a nanoblock run store (no zarr.json)")
@@ -359,7 +361,7 @@ def sweep(
 
 @app.command()
 def plot(
-    store: Annotated[Path, typer.Argument(exists=True, help="run store (zarr directory)")],
+    store: Annotated[Path, typer.Argument(help="run store (zarr directory)")],
     out: Annotated[
         Path | None, typer.Option("--out", "-o", help="directory (default: next to STORE)")
     ] = None,
@@ -386,7 +388,7 @@ def plot(
 
 @app.command()
 def info(
-    store: Annotated[Path, typer.Argument(exists=True, help="run store, or sweep directory")],
+    store: Annotated[Path, typer.Argument(help="run store, or sweep directory")],
 ) -> None:
     """Print a run store's provenance and summary, or a sweep directory's task status.
 
