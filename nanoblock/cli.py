@@ -479,7 +479,7 @@ def fit(
     _output_directory(out, writes=FIT_FILES)
     if mcmc:
         _require_module("emcee", "--mcmc", "pip install 'nanoblock[mcmc]'")
-    with _bad_input(DataError, ValueError):
+    with _bad_input(DataError, ValueError, RuntimeError):
         measurement = _windowed(load_measurement(data, **_xlook(recipe, rows)), window)
         result = fit_rsf(
             measurement,
@@ -529,7 +529,7 @@ def diagnose(
     from nanoblock.measured import DataError
 
     _output_directory(out, writes=DIAGNOSIS_FILES)
-    with _bad_input(DiagnosisError, DataError, ValueError):
+    with _bad_input(DiagnosisError, DataError, ValueError, RuntimeError):
         measurement = _windowed(load_for_diagnosis(data, **_xlook(recipe, rows)), window)
         result = diagnose(measurement, progress=progress, workers=workers, simulate=simulate)
     written = write_diagnosis(result, out, data.name, measurement)

@@ -200,3 +200,13 @@ def test_bad_input_is_refused_with_a_clear_message(call, message: str) -> None:
     with pytest.raises(ValueError, match=None) as error:
         call()
     assert message in str(error.value)
+
+
+def test_a_runaway_slider_is_an_error_that_says_so() -> None:
+    """Far below the critical stiffness (K/W = 0.05 (b - a)/D_c) an up-step runs away: the
+    slip law used to return NaN friction silently; now the solver raises and names it."""
+    params = {"mu0": 0.6, "a": 0.005, "b": 0.015, "dc": 1e-5, "v0": 1e-6}
+    history = LoadPointHistory.from_segments([(1e-6, 50.0), (1e-5, 200.0)])
+    times = np.linspace(0.0, 250.0, 2001)
+    with pytest.raises(RuntimeError, match=r"runs away|integration failed"):
+        solve_slider(law("slip"), params, history, times, 0.05 * 0.01 / 1e-5)

@@ -691,21 +691,22 @@ def _check_fittable(data: xr.Dataset) -> None:
     bad = np.flatnonzero(~np.isfinite(signal) | ((signal < 0.0) if name == "mu" else False))
     if bad.size:
         raise DataError(
-            f"{source}: column {name!r} has {signal[bad[0]]!r} at data row {bad[0] + 1}; a fit "
-            "needs finite friction >= 0"
+            f"{source}: column {name!r} has {float(signal[bad[0]])!r} at data row "
+            f"{bad[0] + 1}; a fit needs finite friction >= 0"
         )
-    if np.ptp(signal) == 0.0:
+    velocities = (
+        np.unique(data["load_point_velocity"].values) if "load_point_velocity" in data else None
+    )
+    if data.attrs.get("kind") == "time_series" and velocities is not None and velocities.size < 2:
         raise DataError(
-            f"{source}: column {name!r} is constant ({signal[0]!r}): there is no rate or state "
-            "effect to fit"
+            f"{source}: column 'load_point_velocity' takes one value ({float(velocities[0])!r} "
+            "m/s): a rate-and-state fit needs a velocity step, a hold or several velocities"
         )
-    if data.attrs.get("kind") == "time_series" and "load_point_velocity" in data:
-        moving = np.unique(data["load_point_velocity"].values)
-        if moving.size < 2:
-            raise DataError(
-                f"{source}: column 'load_point_velocity' takes one value ({moving[0]!r} m/s): "
-                "a rate-and-state fit needs a velocity step, a hold or several velocities"
-            )
+    if np.ptp(signal) == 0.0 and (velocities is None or velocities.size > 1):
+        raise DataError(
+            f"{source}: column {name!r} is constant ({float(signal[0])!r}): there is no rate "
+            "or state effect to fit"
+        )
 
 
 def fit_rsf(

@@ -326,6 +326,13 @@ def solve_slider(
         # quasi-static: f = mu holds at all times and df/dt = k (V_L - v), so friction is
         # the elastic stress, with no law evaluation per sample
         friction = law.friction(w[0], state[:, 0], p) + stiffness * (load_point - slip)
+    runaway = ~(np.isfinite(friction) & np.isfinite(velocity))
+    if runaway.any():
+        raise RuntimeError(
+            f"the spring-slider runs away at t = {times[np.argmax(runaway)]} s (law "
+            f"{law.name!r}, K/W = {stiffness} 1/m): slip becomes unbounded, as in stick-slip "
+            "below the critical stiffness; it has no finite friction to report"
+        )
     return SliderSolution(
         law=law.name,
         time=times,
