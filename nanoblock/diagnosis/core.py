@@ -18,8 +18,8 @@ otherwise). An extension is *supported* when it lowers IC by more than
 ``STRONG_EVIDENCE`` (very strong evidence; for one extra parameter a false alarm on white
 noise has probability ~1e-5 at 5,000 samples), predicts held-out data better than the
 base model, removes the systematic misfit (its residuals pass the structure tests) or at
-least half of the base model's excess variance over the noise, and has every parameter in
-its physical range (:mod:`.plausibility`). The cause is the supported extension with the
+least half of the base model's excess variance over the noise floor, and has every
+parameter in its physical range (:mod:`.plausibility`). The cause is the supported extension with the
 lowest IC (on time series: with the best forecast, which a decimated record keeps) that
 the simulation check, where it runs, does not contradict (switching the
 extension on must lower the simulation's systematic misfit); without one, the answer is
@@ -452,7 +452,10 @@ def diagnose(
         finally:
             runner.close()
     base = scored["base"]
-    supported = [c for c in candidates if _supported(c, base, noise.level)]
+    # the excess a cause must halve is the base variance above the floor at the model's
+    # resolution (the white noise of synthetic records; more on real ones, whichever the
+    # coloured-noise flag says), so a record and its decimation weigh causes alike
+    supported = [c for c in candidates if _supported(c, base, noise.floor)]
     if measurement.kind == "time_series":  # the best forecast among the supported
         supported.sort(key=lambda c: c.heldout_error)
     diagnosis = Diagnosis(
