@@ -19,9 +19,9 @@ otherwise). An extension is *supported* when it lowers IC by more than
 noise has probability ~1e-5 at 5,000 samples), predicts held-out data better than the
 base model, removes the systematic misfit (its residuals pass the structure tests) or at
 least half of the base model's excess variance over the noise floor, and has every
-parameter in its physical range (:mod:`.plausibility`). The cause is the supported extension with the
-lowest IC (on time series: with the best forecast, which a decimated record keeps) that
-the simulation check, where it runs, does not contradict (switching the
+parameter in its physical range (:mod:`.plausibility`). The cause is the supported
+extension with the lowest IC (on time series: with the best forecast, which a decimated
+record keeps) that the simulation check, where it runs, does not contradict (switching the
 extension on must lower the simulation's systematic misfit); without one, the answer is
 ``none`` when the base residuals are within noise and without structure, and
 ``unexplained`` otherwise.
