@@ -33,7 +33,7 @@ import math
 import warnings
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -249,19 +249,13 @@ class _NoiseModel:
         return self.floor if self.coloured else self.white
 
     def to_json(self) -> dict[str, Any]:
-        return {
-            "white": self.white,
-            "floor": self.floor,
-            "coloured": self.coloured,
-            "n_effective": self.n_effective,
-        }
+        return asdict(self)
 
 
-def _noise_model(measurement: Measurement, fits: dict[str, Fit]) -> _NoiseModel:
+def _noise_model(measurement: Measurement, residuals: dict[str, list[np.ndarray]]) -> _NoiseModel:
     """White noise of the data, the floor at the model's resolution (time series: from the
     base residuals) and, for coloured noise, the effective size of the best fit's residuals."""
     white = noise_level(measurement.observed)
-    residuals = {name: _residuals(measurement, fit) for name, fit in fits.items()}
     if measurement.kind != "time_series":
         return _NoiseModel(white, white, False, None)
     floor = resolution_noise(_steady_stretches(measurement, residuals["base"]))
@@ -285,10 +279,6 @@ def _steady_stretches(measurement: Measurement, residuals: list[np.ndarray]) -> 
     return stretches
 
 
-def _residuals(measurement: Measurement, fit: Fit) -> list[np.ndarray]:
-    return [m - y for m, y in zip(fit.model, measurement.observed, strict=True)]
-
-
 def _fit_candidates(
     measurement: Measurement, models: dict[str, Surrogate], runner: _Runner
 ) -> tuple[dict[str, Fit], _NoiseModel, dict[str, Candidate]]:
@@ -299,18 +289,24 @@ def _fit_candidates(
     names = [name for name in models if name != "base"]
     jobs = [(measurement, models[name], base_fit.start) for name in names]
     fits = {"base": base_fit, **dict(zip(names, runner.map(_full_fit, jobs), strict=True))}
-    noise = _noise_model(measurement, fits)
+    residuals = {
+        name: [m - y for m, y in zip(fit.model, measurement.observed, strict=True)]
+        for name, fit in fits.items()
+    }
+    noise = _noise_model(measurement, residuals)
     candidates = {}
     for name, fit in fits.items():
-        residuals = _residuals(measurement, fit)
         candidates[name] = Candidate(
             name,
             fit,
-            residuals,
-            information_criterion(residuals, fit.n_free, noise.n_effective),
+            residuals[name],
+            information_criterion(residuals[name], fit.n_free, noise.n_effective),
             None,
             structure(
-                residuals, noise.level, coloured=noise.coloured, n_effective=noise.n_effective
+                residuals[name],
+                noise.level,
+                coloured=noise.coloured,
+                n_effective=noise.n_effective,
             ),
             _implausible(measurement, name, fit),
         )

@@ -94,7 +94,7 @@ def find_stick_slip(prepared: list[RunData]) -> list[StickSlip]:
     found = []
     for index, run in enumerate(prepared):
         history = run.history
-        segment = np.clip(np.searchsorted(history.starts, run.time, side="right") - 1, 0, None)
+        segment = history.segment_at(run.time)
         for k, velocity in enumerate(history.velocities):
             inside = np.flatnonzero(segment == k)
             if velocity <= 0.0 or inside.size < 2 * MIN_DROPS:

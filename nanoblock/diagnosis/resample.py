@@ -18,6 +18,7 @@ import xarray as xr
 
 from nanoblock.measured import runs
 from nanoblock.rsf.fit import prepare_runs
+from nanoblock.rsf.slider import LoadPointHistory
 
 BINS_PER_RUN = 1000
 """Bins of equal load-point progress per run (the model's resolution is 1 % of a run's
@@ -28,9 +29,10 @@ _PIECEWISE = ("run", "load_point_velocity")
 """Columns constant within a bin, kept exactly (a mean would round them)."""
 
 
-def _bin_index(time: np.ndarray, starts: np.ndarray, velocities: np.ndarray) -> np.ndarray:
+def _bin_index(time: np.ndarray, history: LoadPointHistory) -> np.ndarray:
     """Bin of every sample: (segment, floor(progress / width)) flattened to one integer."""
-    segment = np.clip(np.searchsorted(starts, time, side="right") - 1, 0, None)
+    segment = history.segment_at(time)
+    velocities = history.velocities
     moving = np.where(velocities > 0.0, velocities, 0.0)
     carried = np.maximum.accumulate(np.where(moving > 0.0, np.arange(moving.size), 0))
     pace = np.where(moving > 0.0, moving, moving[carried])  # holds: the previous velocity
@@ -52,7 +54,7 @@ def resample_by_travel(data: xr.Dataset) -> xr.Dataset:
         return data
     pieces = []
     for part, prepared in zip(runs(data), prepare_runs(data), strict=True):
-        index = _bin_index(prepared.time, prepared.history.starts, prepared.history.velocities)
+        index = _bin_index(prepared.time, prepared.history)
         _, first, inverse, counts = np.unique(
             index, return_index=True, return_inverse=True, return_counts=True
         )

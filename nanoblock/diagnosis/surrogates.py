@@ -144,7 +144,7 @@ class Measurement:
 
 def forecast_mask(run: RunData) -> NDArray[np.bool_]:
     """Samples in the second half (in time) of every load-point segment after the first."""
-    segment = np.clip(np.searchsorted(run.history.starts, run.time, side="right") - 1, 0, None)
+    segment = run.history.segment_at(run.time)
     held = np.zeros(run.time.size, dtype=bool)
     for k in range(1, run.history.starts.size):
         inside = segment == k

@@ -99,16 +99,20 @@ class LoadPointHistory:
         starts = np.concatenate([[time[0]], switch])
         return cls(starts, np.concatenate([[velocity[0]], velocity[change]]))
 
+    def segment_at(self, t: ArrayLike) -> NDArray[np.intp]:
+        """Index of the segment in force at each time t [s] (0 before the first start)."""
+        index = np.searchsorted(self.starts, np.asarray(t, dtype=float), side="right") - 1
+        return np.clip(index, 0, None)
+
     def velocity_at(self, t: ArrayLike) -> FloatArray:
         """V_L(t) [m/s]."""
-        index = np.searchsorted(self.starts, np.asarray(t, dtype=float), side="right") - 1
-        return self.velocities[np.clip(index, 0, None)]
+        return self.velocities[self.segment_at(t)]
 
     def displacement_at(self, t: ArrayLike) -> FloatArray:
         """x_L(t) - x_L(starts[0]) [m]."""
         t = np.asarray(t, dtype=float)
         ends = np.concatenate([[0.0], np.cumsum(np.diff(self.starts) * self.velocities[:-1])])
-        index = np.clip(np.searchsorted(self.starts, t, side="right") - 1, 0, None)
+        index = self.segment_at(t)
         return ends[index] + self.velocities[index] * (t - self.starts[index])
 
 
