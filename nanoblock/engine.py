@@ -28,7 +28,13 @@ from nanoblock.kernels.contacts import ageing_rate, total_contact_area
 from nanoblock.kernels.layout import PARAMS, SLIDER
 from nanoblock.kernels.rng import seed_streams
 from nanoblock.kernels.stepper import advance_to_sample
-from nanoblock.params import Scenario, ScenarioError, requirements, resolve_seed
+from nanoblock.params import (
+    Scenario,
+    ScenarioError,
+    check_feasible,
+    requirements,
+    resolve_seed,
+)
 from nanoblock.store import SAMPLES, SNAPSHOTS, RunStore, dataset
 from nanoblock.tables import hazard_table, lattice_hazard_table
 from nanoblock.theory.meanfield import MeanFieldJoint, sample_q_stationary
@@ -408,9 +414,12 @@ def simulate(
     snapshots if ``run.snapshot_every`` > 0) is built in memory. ``progress`` shows a
     progress bar (share of the expected depinnings done, slider slip since the run or its
     resume started, events/s, and an ETA from the work done), preceded on stderr by
-    :data:`COMPILING` when the kernels are not in Numba's cache yet.
+    :data:`COMPILING` when the kernels are not in Numba's cache yet. A run this machine
+    cannot hold or finish is refused before anything is allocated (``ScenarioError``, see
+    :func:`~nanoblock.params.check_feasible`).
     """
     scenario = resolve_seed(scenario, seed)
+    check_feasible(scenario)
     if progress and not cached(advance_to_sample):
         print(COMPILING.format(minutes=COMPILE_MINUTES), file=sys.stderr, flush=True)
     run = Run(scenario)

@@ -8,9 +8,10 @@ flushed sample and a complete checkpoint to resume from.
 
 Integrity: every array written since the ``integrity`` root attr exists carries a crc32c
 checksum on each chunk and writes every chunk, even one of fill values, so a chunk that is
-missing or altered is found by :meth:`RunStore.damage` (older stores: unreadable chunks
-only). Each checkpoint slot also holds its own resume data, so a resume falls back to the
-other slot when the last one is damaged.
+missing or altered is found by :meth:`RunStore.damage` (older stores: unreadable chunks,
+and missing chunks of arrays whose fill value is NaN, since a run never stores NaN). Each
+checkpoint slot also holds its own resume data, so a resume falls back to the other slot
+when the last one is damaged.
 """
 
 from __future__ import annotations
@@ -280,10 +281,11 @@ class RunStore:
         group = self._slot(slot)
         if group is None:
             return [f"checkpoint/{slot}: missing"]
-        checked = self.path if self.attrs.get("integrity") == INTEGRITY else None
+        checked = self.attrs.get("integrity") == INTEGRITY
         problems = []
         for name in group.array_keys():
-            problems += _chunk_damage(group[name], f"checkpoint/{slot}/{name}", None, checked)
+            where = f"checkpoint/{slot}/{name}"
+            problems += _chunk_damage(group[name], where, None, self.path, checked)
         if not problems and not list(group.array_keys()):
             problems.append(f"checkpoint/{slot}: holds no arrays")
         return problems
@@ -299,7 +301,7 @@ class RunStore:
             n_samples = int(pointer["samples"]) if unfinished else None
             n_snapshots = int(pointer.get("snapshots", 0)) if unfinished else None
         group = zarr.open_group(self.path, mode="r")
-        checked = self.path if attrs.get("integrity") == INTEGRITY else None
+        checked = attrs.get("integrity") == INTEGRITY
         with warnings.catch_warnings():  # a folder without zarr.json: reported as missing
             warnings.simplefilter("ignore", UserWarning)
             present = set(group.array_keys())
@@ -307,7 +309,7 @@ class RunStore:
                 f"{name}: array missing" for name in [*SAMPLES, "time"] if name not in present
             ]
             for array, keep in _appended(group, n_samples, n_snapshots):
-                problems += _chunk_damage(array, array.basename, keep, checked)
+                problems += _chunk_damage(array, array.basename, keep, self.path, checked)
         return problems
 
     def open(self) -> xr.Dataset:
@@ -348,9 +350,15 @@ def _appended(
         yield array, keep.get(dims[0]) if dims else None
 
 
-def _chunk_damage(array: zarr.Array, name: str, keep: int | None, root: Path | None) -> list[str]:
-    """Chunks of ``array`` (its first ``keep`` rows; None: all) that are missing (looked
-    for only with ``root``: a store whose chunks are all written) or fail to decode."""
+def _chunk_damage(
+    array: zarr.Array, name: str, keep: int | None, root: Path, all_written: bool = True
+) -> list[str]:
+    """Chunks of ``array`` in the store at ``root`` (its first ``keep`` rows; None: all)
+    that are missing or fail to decode. Without ``all_written`` (a store from before
+    :data:`INTEGRITY`, which omitted chunks of fill values) a chunk counts as missing only
+    if the fill value is NaN, which a run never stores."""
+    fill = array.fill_value
+    look = all_written or (isinstance(fill, float | np.floating) and bool(np.isnan(fill)))
     if not array.shape:
         return _unreadable(array, (), name)
     keep = array.shape[0] if keep is None else min(keep, array.shape[0])
@@ -365,9 +373,7 @@ def _chunk_damage(array: zarr.Array, name: str, keep: int | None, root: Path | N
         keys = (
             array.metadata.encode_chunk_key((index, *coords)) for coords in np.ndindex(*counts[1:])
         )
-        missing = [
-            key for key in keys if root is not None and not (root / array.path / key).exists()
-        ]
+        missing = [key for key in keys if look and not (root / array.path / key).exists()]
         if missing:
             problems.append(f"{where} missing (chunk {missing[0]})")
         else:

@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 
 from nanoblock.cli import app
 from nanoblock.engine import simulate
-from nanoblock.params import load_scenario
+from nanoblock.params import ScenarioError, load_scenario
 from tests.test_resume import TINY
 
 SECONDS = 30.0
@@ -156,6 +156,15 @@ def test_a_hot_joint_whose_blocks_hop_without_load_is_refused(tmp_path) -> None:
     )
     args = ["run", str(scenario_file(tmp_path, text)), "--out", str(tmp_path / "x.zarr")]
     refused(tmp_path, args, "bad.toml: cannot run", "3000 K", "u = 5.02", "without load")
+
+
+def test_the_python_api_refuses_an_infeasible_run_before_allocating(tmp_path) -> None:
+    """simulate() checks what the CLI checks: 1e-15 s between samples would need 1e11
+    samples (a MemoryError of TiB before issue 17)."""
+    text = edited("record_every = 1e-4", "record_every = 1e-15")
+    scenario = load_scenario(scenario_file(tmp_path, text))
+    with pytest.raises(ScenarioError, match=r"run.record_every = 1e-15 .* samples"):
+        simulate(scenario)
 
 
 def test_scenario_that_is_not_text_is_refused(tmp_path) -> None:
@@ -331,7 +340,8 @@ def test_a_sweep_point_that_cannot_run_is_refused_before_any_task(tmp_path) -> N
 
 def test_a_store_written_before_checksums_still_opens_and_reports_bad_bytes(tmp_path) -> None:
     """Stores from before issue 17 have no crc32c and may omit chunks of fill values:
-    they open as before; a chunk of random bytes (not zstd) is still reported."""
+    they open as before; a chunk of random bytes (not zstd) is still reported, and so is a
+    missing chunk of an array filled with NaN (a run never stores NaN)."""
     run = simulate(load_scenario(scenario_file(tmp_path, TINY)))
     old = tmp_path / "old.zarr"
     run.to_zarr(old, zarr_format=3, consolidated=False)
@@ -341,6 +351,8 @@ def test_a_store_written_before_checksums_still_opens_and_reports_bad_bytes(tmp_
     chunk = old / "friction_force" / "c" / "0"
     chunk.write_bytes(np.random.default_rng(17).bytes(chunk.stat().st_size))
     refused(tmp_path, ["info", str(old)], "friction_force: samples 0-100 unreadable")
+    chunk.unlink()  # a missing chunk of a NaN-filled array would read as NaN: lost data
+    refused(tmp_path, ["info", str(old)], "friction_force: samples 0-100 missing")
 
 
 @pytest.mark.parametrize("command", ["fit", "diagnose"])

@@ -210,3 +210,19 @@ def test_a_runaway_slider_is_an_error_that_says_so() -> None:
     times = np.linspace(0.0, 250.0, 2001)
     with pytest.raises(RuntimeError, match=r"runs away|integration failed"):
         solve_slider(law("slip"), params, history, times, 0.05 * 0.01 / 1e-5)
+
+
+@pytest.mark.parametrize("ulps", [1, 2, 8, 64])
+def test_a_step_located_a_few_ulp_before_a_sample_starts_at_the_sample(ulps: int) -> None:
+    """A step located from rounded displacements can land ulps before the sample it
+    happened at (issue 17: LSODA refused that interval with 'Illegal input'); it starts
+    at the sample, which changes the friction by far less than the integration tolerance."""
+    times = np.arange(400) * 0.007
+    step = times[256]
+    early = LoadPointHistory(
+        np.array([0.0, step - ulps * np.spacing(step)]), np.array([1e-6, 1e-5])
+    )
+    exact = LoadPointHistory(np.array([0.0, step]), np.array([1e-6, 1e-5]))
+    ours = solve_slider(law("aging"), STANDARD, early, times, 2e3).friction
+    reference = solve_slider(law("aging"), STANDARD, exact, times, 2e3).friction
+    np.testing.assert_allclose(ours, reference, rtol=0.0, atol=NAIVE_RSF_ATOL)

@@ -227,6 +227,12 @@ def _velocity_controlled_rhs(law: Law, p: tuple[float, ...]):
     return rhs
 
 
+_UNRESOLVED = 64
+"""Intervals of at most this many ulp of t are below the integrator's time resolution
+(LSODA refuses to start on them): a segment that starts that close before a sample, as a
+step located from rounded displacements can, begins at the sample."""
+
+
 def solve_slider(
     law: Law,
     params: Mapping[str, float],
@@ -290,6 +296,8 @@ def solve_slider(
         stop = min(end, times[-1])
         inside = times[filled:][times[filled:] <= stop]
         grid = np.unique(np.concatenate([[t_now], inside, [stop]]))
+        if grid.size > 1 and grid[1] - grid[0] <= _UNRESOLVED * np.spacing(abs(grid[1])):
+            grid = grid[1:]  # a start a few ulp before the next time: LSODA cannot step it
         if grid.size > 1:
             try:
                 with warnings.catch_warnings():  # failure is reported below, with context
