@@ -473,7 +473,7 @@ def fit(
     n_points), OUT/report.md and OUT/fit.png (data, fit and residuals).
     """
     from nanoblock.measured import DataError, load_measurement
-    from nanoblock.rsf.fit import fit_rsf
+    from nanoblock.rsf.fit import check_state_evolves, fit_rsf
     from nanoblock.rsf.report import write_fit
 
     _output_directory(out, writes=FIT_FILES)
@@ -491,6 +491,8 @@ def fit(
             method="mcmc" if mcmc else "lsq",
             mcmc_steps=mcmc_steps,
         )
+        if "dc" in result.free:
+            check_state_evolves(measurement, result.contract["dc"], result.contract_stderr["dc"])
     written = write_fit(result, measurement, out)
     for key in ("mu0", "a", "b", "dc"):
         value, error = result.contract[key], result.contract_stderr[key]

@@ -355,6 +355,30 @@ def test_a_store_written_before_checksums_still_opens_and_reports_bad_bytes(tmp_
     refused(tmp_path, ["info", str(old)], "friction_force: samples 0-100 missing")
 
 
+def test_a_record_ending_before_the_state_evolves_is_refused(tmp_path) -> None:
+    """31 um of travel after the step of a D_c = 20 um record: the aging-law fit gives D_c
+    = 50 +- 124 um, which the record cannot bound; refused naming the column and both
+    lengths. The same record run on to 105 um after the step is fitted (D_c 20.0 +- 0.09
+    um)."""
+    from tests.rsf_synthetic import record
+
+    truth = {"mu0": 0.6, "a": 0.01, "b": 0.013, "dc": 2e-5, "v0": 1e-6}
+    data = record("aging", truth, "velocity_step", 2500.0, np.random.default_rng(4), n_samples=2000)
+    step = int(np.flatnonzero(np.diff(data["load_point_velocity"].values))[0]) + 1
+    columns = ("time", "mu", "load_point_velocity", "load_point_displacement")
+    for after, ok in ((30, False), (100, True)):
+        csv = tmp_path / f"step{after}.csv"
+        table = np.column_stack([data[c].values[: step + after] for c in columns])
+        header = "# stiffness_per_load: 2500\n" + ",".join(columns)
+        np.savetxt(csv, table, delimiter=",", header=header, comments="")
+        args = ["fit", str(csv), "--out", str(tmp_path / f"out{after}")]
+        if ok:
+            done = CliRunner().invoke(app, args)
+            assert done.exit_code == 0, done.output
+        else:
+            refused(tmp_path, args, "step30.csv", "load_point_velocity", "31.5 um", "D_c =")
+
+
 @pytest.mark.parametrize("command", ["fit", "diagnose"])
 def test_fit_and_diagnose_keep_a_users_files_and_replace_their_own(tmp_path, command) -> None:
     """--out holding a user's file is refused before work; a previous output of the same

@@ -709,6 +709,51 @@ def _check_fittable(data: xr.Dataset) -> None:
         )
 
 
+def slip_after_steps(data: xr.Dataset) -> float:
+    """Longest load-point travel [m] recorded after a change of the load-point velocity
+    and before the next one or the end of its run (0 without a change)."""
+    longest = 0.0
+    for run in runs(data):
+        time = np.asarray(run["time"].values, dtype=float)
+        velocity = np.asarray(run["load_point_velocity"].values, dtype=float)
+        change = np.flatnonzero(np.diff(velocity) != 0.0) + 1
+        for start, stop in zip(change, [*change[1:], velocity.size], strict=True):
+            if "load_point_displacement" in run:
+                x = run["load_point_displacement"].values
+                travel = float(x[stop - 1] - x[start - 1])
+            else:
+                travel = float(velocity[start] * (time[stop - 1] - time[start - 1]))
+            longest = max(longest, travel)
+    return longest
+
+
+MEASURED_DC_Z = 2.0
+"""Standard errors above the fitted D_c that must still lie within the record's slip
+after a step for D_c to count as measured (a two-sided 95 % bound)."""
+
+
+def check_state_evolves(data: xr.Dataset, dc: float | None, dc_stderr: float | None) -> None:
+    """Refuse a velocity-step record too short after its steps to measure the state's
+    evolution: D_c is measured only if the fit excludes D_c beyond the longest load-point
+    travel after a velocity change (``dc + MEASURED_DC_Z * dc_stderr`` within it, [m]);
+    otherwise friction need not have relaxed by 1/e (001/Eq. 3: theta -> D_c / V over
+    D_c of slip) when the record ends, and D_c and b are not measured. (A diagnosis does
+    not apply it: there an unbounded base-model D_c is a symptom to explain.)"""
+    if data.attrs.get("kind") != "time_series" or dc is None or "load_point_velocity" not in data:
+        return
+    travel = slip_after_steps(data)
+    error = math.inf if dc_stderr is None or not math.isfinite(dc_stderr) else dc_stderr
+    if dc + MEASURED_DC_Z * error > travel:
+        source = data.attrs.get("source_file", "the data")
+        raise DataError(
+            f"{source}: at most {travel * 1e6:.3g} um of load-point travel follows a change of "
+            f"'load_point_velocity'; the fit (D_c = {dc * 1e6:.3g} +- {error * 1e6:.3g} um) "
+            "cannot exclude a D_c beyond it, so D_c and b are not measured: the record ends "
+            "too soon after its steps (a fit needs several D_c of slip after a step), or the "
+            "law does not describe it (`nanoblock diagnose` names what it misses)"
+        )
+
+
 def fit_rsf(
     data: xr.Dataset,
     law_name: str = "aging",
