@@ -74,6 +74,9 @@ def kernel_parameters(scenario: Scenario) -> np.ndarray:
     record["omega1_sq"] = omega1_sq
     record["damping"] = joint.damping
     record["memory_length"] = interface.memory_length
+    second = interface.second_memory_length
+    record["memory_length2"] = interface.memory_length if second is None else second
+    record["second_from"] = interface.n_contacts - interface.second_contacts
     record["aging_m"] = interface.aging_m
     record["aging_time"] = interface.aging_time
     cutoff = interface.state_cutoff_velocity
@@ -173,6 +176,16 @@ def _chain_stretch(stress: np.ndarray, kappa: float) -> np.ndarray:
     return solve_banded((1, 1), bands, stress.T).T
 
 
+def contact_memory_lengths(scenario: Scenario) -> np.ndarray:
+    """D0 of every contact [m]: ``memory_length``, and ``second_memory_length`` for the
+    last ``second_contacts`` (the kernels' :func:`~nanoblock.kernels.contacts.memory_length`)."""
+    interface = scenario.interface
+    memory = np.full(interface.n_contacts, interface.memory_length)
+    if interface.second_memory_length is not None:
+        memory[interface.n_contacts - interface.second_contacts :] = interface.second_memory_length
+    return memory
+
+
 def initial_state(
     scenario: Scenario, params: np.ndarray, strength: np.ndarray | None = None
 ) -> InterfaceState:
@@ -190,7 +203,7 @@ def initial_state(
     contact_seed, setup_seed = np.random.SeedSequence(seed).spawn(2)
     streams = seed_streams(int(contact_seed.generate_state(1)[0]), shape[0])
     setup = np.random.default_rng(setup_seed)
-    memory = interface.memory_length
+    memory = contact_memory_lengths(scenario)
     h = setup.standard_exponential(shape)
     lifetime = memory * setup.standard_exponential(shape[0])
     if scenario.run.initial_state == "unloaded":
@@ -205,9 +218,9 @@ def initial_state(
             rows[:] = rho.reshape(rows.shape) / member.rho_max
         y = _chain_stretch(y, float(params[0]["kappa"]))
         clock = ageing_rate(velocity, params[0])
-        age = (memory / velocity) * clock * setup.standard_exponential(shape[0])
-        if not np.isfinite(memory):
-            age = np.zeros(shape[0])
+        with np.errstate(invalid="ignore"):  # inf x 0 where D0 = inf: newborn, age 0
+            age = (memory / velocity) * clock * setup.standard_exponential(shape[0])
+        age[~np.isfinite(memory)] = 0.0
     slip = np.zeros(shape[0])
     events = np.zeros(shape[0], dtype=np.int64)
     state = InterfaceState(y, h, age, slip, lifetime, events, streams)

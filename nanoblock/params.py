@@ -274,6 +274,11 @@ class Interface(_Section):
     - ``memory_length_exponent`` n with ``reference_force`` W_ref: D0(W) =
       ``memory_length`` (W / W_ref)^n (000/Fig. 3 caption). The resolved interface holds
       D0(W) with ``reference_force`` = W, so that it reproduces the run on its own.
+    - ``second_memory_length`` D0_2 with ``second_population`` f: the last
+      round(f N_c) contacts are renewed after Exp(D0_2) of slip instead of Exp(D0) (gouge
+      fabric, a second contact population): two evolution lengths, with the state effect
+      split as b_2 / (b + b_2) = f (each population ages as 001/Eq. 5). The load
+      exponent scales D0 only.
     """
 
     normal_force: Positive = Field(description="normal load W [N]")
@@ -299,6 +304,34 @@ class Interface(_Section):
     reference_force: Positive | None = Field(
         None, description="W_ref [N] at which memory_length is given (with n > 0)"
     )
+    second_memory_length: PositiveOrInf | None = Field(
+        None, description="mean lifetime in slip D0_2 [m] of the second contact population"
+    )
+    second_population: Positive | None = Field(
+        None, lt=1.0, description="fraction f of the contacts in the second population (0, 1)"
+    )
+
+    @model_validator(mode="after")
+    def _second_population(self) -> Self:
+        if (self.second_memory_length is None) != (self.second_population is None):
+            raise ValueError(
+                "second_memory_length (m) and second_population (a fraction in (0, 1)) "
+                "come together: give both or neither"
+            )
+        if self.second_population is not None and not (
+            1 <= self.second_contacts <= self.n_contacts - 1
+        ):
+            raise ValueError(
+                f"second_population = {self.second_population!r} of n_contacts = "
+                f"{self.n_contacts} gives {self.second_contacts} contacts; each population "
+                "needs at least one (more contacts, or f nearer 1/2)"
+            )
+        return self
+
+    @property
+    def second_contacts(self) -> int:
+        """Contacts in the second population, round(f N_c) (0 without one)."""
+        return round((self.second_population or 0.0) * self.n_contacts)
 
     @model_validator(mode="after")
     def _load_dependent_memory(self) -> Self:

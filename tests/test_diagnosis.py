@@ -226,6 +226,39 @@ def test_simulation_check_runs_the_simulator_with_the_cause_switched_on() -> Non
     assert check["systematic_variance_removed"] > 0.3
 
 
+def test_simulation_check_switches_on_a_second_contact_population() -> None:
+    """two_state_variable in the simulator: a record of the independent renewal generator
+    with a second population (b2 = 0.6 b, D2 = 12 D), its aging2 fit turned into
+    interface.second_memory_length / second_population: the simulated systematic misfit
+    falls (measured 0.0161 -> 0.0110, 53 % of its variance)."""
+    from nanoblock.diagnosis.catalogue import BASE, CATALOGUE
+    from nanoblock.diagnosis.resample import resample_by_travel
+    from nanoblock.diagnosis.simulation import simulation_check
+    from nanoblock.diagnosis.surrogates import Measurement
+    from tests.diagnosis_synthetic import _dataset, _displacement
+    from tests.hidden_synthetic import _sample_times
+    from tests.renewal_synthetic import Renewal, renewal_slider
+
+    v1, d0, a, b = 1e-6, 2e-5, 0.01, 0.012
+    truth = Renewal(mu0=0.6, a=a, b=b, d0=d0, tau_m=1e-6 * d0 / v1, b2=0.6 * b, d2=12 * d0)
+    segments = [(v1, 10 * d0 / v1), (10 * v1, 6 * d0 / v1), (v1, 60 * d0 / v1)]
+    stiffness = 0.6 * a / (0.5 * d0)
+    t, mu = renewal_slider(truth, segments, stiffness, start_velocity=v1)
+    time = _sample_times(segments)
+    noisy = np.interp(time, t, mu) + 2e-4 * np.random.default_rng(1).standard_normal(time.size)
+    columns = {"time": time, "mu": noisy, "load_point_displacement": _displacement(segments, time)}
+    data = _dataset(columns, "time_series", stiffness_per_load=stiffness)
+    measurement = Measurement(resample_by_travel(data))
+    base = measurement.fit(BASE["time_series"])
+    two_state = measurement.fit(
+        CATALOGUE["two_state_variable"].surrogates["time_series"], start=base.start
+    )
+    check = simulation_check(data, base.params, "two_state_variable", two_state.params)
+    assert check["status"] == "ran", check
+    assert 0.0 < json.loads(check["scenario_extended"])["interface"]["second_population"] < 1.0
+    assert check["extended"]["systematic"] < 0.8 * check["base"]["systematic"]
+
+
 def test_simulation_check_says_why_it_cannot_run() -> None:
     from nanoblock.diagnosis.simulation import simulation_check
 

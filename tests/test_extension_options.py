@@ -10,6 +10,7 @@ errors), and the theory must show the catalogue's signature:
   naive fixed-step reference;
 - state_velocity_cutoff: steady mean age D0 / (V + v_theta) (000/Eq. 7), no ageing in holds;
 - load_dependent_dc: mean age D0 (W / W_ref)^n / V at two loads (000/Fig. 3 caption);
+- two_state_variable: a second population renewed over D0_2, mean age mixing both;
 - strength_heterogeneity: steady stress vs the class average; zero spread is the base run;
 - joint_softening: sigma_a(T) follows the linear law; alpha(T) rises faster than T.
 """
@@ -289,6 +290,37 @@ def test_memory_length_grows_with_load() -> None:
         assert_age(measured, expected / velocity)
 
 
+@pytest.mark.parametrize("fraction", [0.25, 0.5])
+def test_second_population_steady_age_mixes_both_memory_lengths(fraction: float) -> None:
+    """two_state_variable: round(f N_c) contacts renewed after Exp(D0_2) of slip, the
+    rest after Exp(D0), so the steady mean age is ((1 - f) D0 + f D0_2) / V (one
+    population with the wrong length, or the wrong share, is off by > 40 %)."""
+    memory, second, velocity = 1e-8, 4e-8, 1e-6
+    measured = mean_age_run(
+        velocity,
+        second,
+        memory_length=memory,
+        second_memory_length=second,
+        second_population=fraction,
+    )
+    assert_age(measured, ((1 - fraction) * memory + fraction * second) / velocity)
+
+
+def test_second_population_contacts_are_the_last_round_f_n() -> None:
+    from nanoblock.engine import contact_memory_lengths
+
+    run = scenario(
+        interface={
+            "n_contacts": 10,
+            "memory_length": 1e-8,
+            "second_memory_length": 5e-7,
+            "second_population": 0.34,
+        }
+    )
+    assert run.interface.second_contacts == 3
+    assert list(contact_memory_lengths(run)) == [1e-8] * 7 + [5e-7] * 3
+
+
 # ----------------------------------------------------------------- strength heterogeneity
 
 
@@ -409,6 +441,21 @@ def test_softening_makes_alpha_rise_faster_than_temperature() -> None:
         ),
         ({"interface": {"reference_force": 1.0}}, ["no effect", "memory_length_exponent"]),
         ({"interface": {"memory_length_exponent": math.nan}}, ["memory_length_exponent", "NaN"]),
+        ({"interface": {"second_memory_length": 1e-6}}, ["second_population", "both or neither"]),
+        (
+            {"interface": {"second_memory_length": 1e-6, "second_population": 1.0}},
+            ["interface.second_population", "less than 1"],
+        ),
+        (
+            {
+                "interface": {
+                    "n_contacts": 4,
+                    "second_memory_length": 1e-6,
+                    "second_population": 0.1,
+                }
+            },
+            ["second_population = 0.1", "n_contacts = 4", "0 contacts"],
+        ),
     ],
 )
 def test_bad_extension_options_name_key_and_range(changes, fragments) -> None:
@@ -438,6 +485,8 @@ def extension_protocol() -> Scenario:
             "state_cutoff_velocity": 3e-6,
             "memory_length_exponent": 0.5,
             "reference_force": 2.0,
+            "second_memory_length": 2e-7,
+            "second_population": 0.25,
         },
         loading={
             "stiffness": 2e5,

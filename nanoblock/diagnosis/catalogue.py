@@ -178,8 +178,7 @@ CATALOGUE: dict[str, Effect] = {
             "a sharp decay after a step followed by a slow tail; one-state D_c grows with "
             "the fit window",
             {"b2": "second evolution coefficient", "dc2": "second memory length D_c2 [m]"},
-            "(not yet in the simulator: it needs a second contact population with its own "
-            "memory length)",
+            "interface.second_memory_length with interface.second_population",
             {"time_series": RsfVariant("aging2", explore=("dc2",))},
             "velocity steps with several D_c of slip after the step",
             ranges={"b2": (-0.05, 0.05), "dc2": (1e-7, 1e-1)},

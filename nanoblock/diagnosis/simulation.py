@@ -218,6 +218,30 @@ def _load_memory(
     )
 
 
+def _two_state(scenario: Scenario, params: Mapping[str, float], scale: float, _) -> Scenario:
+    """A second contact population with D0_2 / D0 = D_c2 / D_c holding the share
+    f = b2 / (b + b2) of the state effect; the ageing m = (b + b2) / mu0 of all contacts."""
+    mu0, b, b2 = (float(params[key]) for key in ("mu0", "b", "b2"))
+    ratio = float(params["dc2"]) / float(params["dc"])
+    n_contacts = scenario.interface.n_contacts
+    share = b2 / (b + b2) if b > 0.0 and b2 > 0.0 else 0.0
+    if not 1 <= round(share * n_contacts) <= n_contacts - 1:
+        raise CalibrationError(
+            f"the two-state fit has b = {b:.3g}, b2 = {b2:.3g}: a second population holding "
+            f"b2 / (b + b2) of the ageing needs both > 0 and at least one of "
+            f"{n_contacts} contacts in each population"
+        )
+    return _with(
+        scenario,
+        "interface",
+        {
+            "aging_m": (b + b2) / mu0,
+            "second_memory_length": scenario.interface.memory_length * ratio,
+            "second_population": share,
+        },
+    )
+
+
 def _stiffness(scenario: Scenario, params: Mapping[str, float], scale: float, _) -> Scenario:
     """The extended interface is already built at the fitted K/W (loading.stiffness)."""
     return scenario
@@ -228,6 +252,7 @@ SWITCHES: dict[str, Callable[[Scenario, Mapping[str, float], float, float], Scen
     "state_velocity_cutoff": _cutoff,
     "load_dependent_dc": _load_memory,
     "machine_stiffness": _stiffness,
+    "two_state_variable": _two_state,
 }
 """Extensions with a simulator option on time series: (base scenario, extension fit,
 scale, W_ref) -> the scenario with the extension switched on."""
@@ -235,8 +260,6 @@ NOT_SIMULATED = {
     "aging_rate": "the slip law's slip-only healing has no exact renewal-model counterpart "
     "on time series (interface.state_cutoff_velocity is the closest option)",
     "slip_trend": "wear and gouge evolution are outside the nanoblock model",
-    "two_state_variable": "the simulated interface has one contact population; a second "
-    "memory length needs a second population, not yet a scenario option",
     "non_steady_history": "the simulation starts in steady sliding at the first velocity; a "
     "preceding loading step is not yet aligned with the record's time origin",
     "unstable_sliding": "stick-slip is recognised from the record's drops, not fitted",

@@ -3,8 +3,8 @@
 Arrays (c = contacts, i = blocks): ``y[c, i]`` reduced stretch, ``h[c, i]`` remaining
 hazard; per contact ``age[c]`` [s], ``slip[c]`` slider slip since birth [m],
 ``lifetime[c]`` slip at which it dies [m] (Exp(D0), so that in steady sliding the mean
-age is D0 / V: the ageing law, 001/Eq. 3), ``events[c]`` cumulative depinnings and
-``streams[c]`` its random stream. A contact's force is its area
+age is D0 / V: the ageing law, 001/Eq. 3; D0_2 for a second population), ``events[c]``
+cumulative depinnings and ``streams[c]`` its random stream. A contact's force is its area
 Sigma_0 [1 + m ln(1 + age / tau_m)] (001/Eq. 5) times its blocks' mean stress, in units
 of its strength class's sigma_a (``strength[c mod K]``, see :mod:`.layout`).
 
@@ -31,13 +31,20 @@ def contact_area(age: float, params: np.ndarray) -> float:
     return params.contact_area * (1.0 + params.aging_m * np.log1p(age / params.aging_time))
 
 
+@kernel
+def memory_length(c: int, params) -> float:
+    """D0 of contact c [m]: the second population's D0_2 from ``second_from`` on."""
+    return params.memory_length2 if c >= params.second_from else params.memory_length
+
+
 @kernel(nrt=False)
-def renew_contact(y_row, h_row, stream, params) -> float:
-    """Replace a contact by a fresh, unstressed one; returns its slip lifetime [m]."""
+def renew_contact(y_row, h_row, stream, memory: float) -> float:
+    """Replace a contact by a fresh, unstressed one; returns its slip lifetime [m],
+    Exp with mean ``memory`` = D0."""
     for i in range(y_row.shape[0]):
         y_row[i] = 0.0
         h_row[i] = standard_exponential(stream)
-    return params.memory_length * standard_exponential(stream)
+    return memory * standard_exponential(stream)
 
 
 @kernel(nrt=False)
@@ -114,7 +121,7 @@ def advance_contact(
         pending = 0.0
         if not dies:
             return
-        lifetime[c] = renew_contact(y[c], h[c], streams[c], params)
+        lifetime[c] = renew_contact(y[c], h[c], streams[c], memory_length(c, params))
         slip[c] = 0.0
         age[c] = 0.0
 

@@ -21,6 +21,8 @@ PARAMS = np.dtype(
         ("omega1_sq", np.float64),  # k1 / m_b [1/s^2]
         ("damping", np.float64),  # gamma [1/s]
         ("memory_length", np.float64),  # D0 [m] (inf: no renewal)
+        ("memory_length2", np.float64),  # D0_2 [m] of the second population
+        ("second_from", np.int64),  # first contact of the second population (N_c: none)
         ("aging_m", np.float64),  # m of 001/Eq. 5
         ("aging_time", np.float64),  # tau_m [s]
         ("state_cutoff", np.float64),  # v_theta [m/s] of 000/Eq. 7 (0: the clock always runs)

@@ -903,7 +903,10 @@ def _solve(
         x, covariance = _mcmc(problem, x, covariance, variance, mcmc_steps, seed)
         residual = problem.residuals(x, 1e-10)
     best_params = problem.unpack(x)
-    models = problem.models(best_params, 1e-10)
+    try:
+        models = problem.models(best_params, 1e-10)
+    except RuntimeError:  # stiff at the fine tolerance (a warm refit stops at the coarse one)
+        models = problem.models(best_params, _COARSE_RTOL)
     errors = _natural_errors(problem, x, covariance)
     return FitResult(
         law=lw.name,
