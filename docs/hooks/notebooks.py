@@ -72,7 +72,7 @@ def _note(path: Path, scale: str, executed: bool, reason: str = "") -> str:
             f'!!! note "Executed at reduced scale"\n'
             f"    This page was executed while the site was built, with "
             f"`NANOBLOCK_NOTEBOOK_SCALE={scale}`: noisier and coarser than the full run "
-            f"({run}, scale 1) that the validation pages quote.\n"
+            f"({run}, scale 1).\n"
         )
     return f'!!! warning "Not executed"\n    {reason} Run it with {run}.\n'
 
@@ -134,7 +134,8 @@ def on_files(files: Files, config, **kwargs: object) -> Files:
     has_data = data.is_dir() and any(data.glob("*.csv"))
     env = {**os.environ, "NANOBLOCK_NOTEBOOK_SCALE": scale}
     env.pop("MPLBACKEND", None)  # the kernel's inline backend captures the figures
-    env["PYTHONWARNINGS"] = "ignore:IProgress not found"  # tqdm.auto without ipywidgets
+    quiet = "ignore:IProgress not found"  # tqdm.auto's warning without ipywidgets
+    env["PYTHONWARNINGS"] = ",".join(filter(None, [env.get("PYTHONWARNINGS"), quiet]))
     if has_data:
         env[NEEDS_DATA] = str(data)
 
