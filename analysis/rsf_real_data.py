@@ -14,8 +14,8 @@
 # %% [markdown]
 # # Rate-and-state fits of measured velocity steps
 #
-# The laboratory records in `../shared/data/` (Penn State biax: p655 Ghost Rocks at 75 and
-# 100 MPa, p4309 from Leeman et al. 2016; see that folder's README) fitted with the aging
+# The laboratory records in `NANOBLOCK_SHARED_DATA` (Penn State biax: p655 Ghost Rocks at 75
+# and 100 MPa, p4309 from Leeman et al. 2016; see that folder's README) fitted with the aging
 # and the slip law through `nanoblock.rsf.fit_rsf`: quasi-static spring-slider, machine
 # stiffness from the metadata (fitted for p4309, whose source does not state it), and a
 # linear friction trend with load-point displacement as laboratory tools allow. Reported:

@@ -15,7 +15,8 @@ directory, in document order, at reduced scale:
 - ``python docs/make_figures.py``: its arguments are parsed; the quick-start figure is
   made at reduced scale by ``test_figures_script_makes_the_quickstart_figure``;
 - ``python analysis/NAME.py``: the notebook must exist (tests/test_notebooks.py runs
-  every notebook at scale 0.05);
+  every notebook at scale 0.05; the docs build executes each for its page,
+  docs/hooks/notebooks.py);
 - ``cp scenarios/...``: copies the repository file;
 - not run: ``pip install`` (this test runs in the installed environment),
   ``python -m pytest`` (the suite itself) and ``dask scheduler`` / ``dask worker``
@@ -52,12 +53,15 @@ REDUCED_CONTACTS = 4
 """Contacts of every simulated scenario in this test (the quick start has 400)."""
 
 FENCE = re.compile(r"^```(\w+)([^\n]*)\n(.*?)^```", re.MULTILINE | re.DOTALL)
-IMAGE = re.compile(r"!\[[^\]]*\]\(([^)\s]+)\)")
+IMAGE = re.compile(r"!\[[^\]]*\]\(([^)\s]+)\)|<img\b[^>]*\bsrc=\"([^\"]+)\"")
+NOTEBOOK_PAGES = "notebooks/"
+"""Nav entries under this folder are generated from ``analysis/*.py`` by
+docs/hooks/notebooks.py while the site is built (no file on disk)."""
 SKIPPED = ("pip install", "python -m pytest", "dask scheduler", "dask worker")
 
 
-def _pages() -> list[Path]:
-    """README.md, then every page of the site in nav order."""
+def _nav() -> list[str]:
+    """Every page of the site in nav order, as written in mkdocs.yml."""
     config = (ROOT / "mkdocs.yml").read_text()
     nav = yaml.safe_load(re.sub(r"!!python\S*", "", config))["nav"]
 
@@ -68,10 +72,12 @@ def _pages() -> list[Path]:
                 found += walk(value) if isinstance(value, list) else [value]
         return found
 
-    return [README, *(DOCS / page for page in walk(nav))]
+    return walk(nav)
 
 
-PAGES = _pages()
+NAV = _nav()
+PAGES = [README, *(DOCS / page for page in NAV if not page.startswith(NOTEBOOK_PAGES))]
+"""README.md, then every page of the site written by hand, in nav order."""
 
 
 def _blocks(page: Path) -> list[tuple[str, str, str]]:
@@ -199,14 +205,48 @@ def test_every_command_shown_runs_at_reduced_scale(tmp_path, monkeypatch, step_c
     assert "nanoblock run --out quickstart.zarr" in done
 
 
-def test_every_figure_referenced_exists_and_is_made_by_the_figures_script() -> None:
-    figures = _make_figures_parser().FIGURES
+def _referenced_figures() -> dict[Path, list[str]]:
+    """Every image the README and the pages show -> the pages that show it."""
+    shown: dict[Path, list[str]] = {}
     for page in PAGES:
-        for target in IMAGE.findall(page.read_text()):
-            path = (page.parent / target).resolve()
-            assert path.is_file(), f"{page.name}: {target} missing"
-            assert path.parent == DOCS / "figures", f"{page.name}: {target} not in docs/figures"
-            assert path.stem in figures, f"{target} is not made by docs/make_figures.py"
+        for match in IMAGE.finditer(page.read_text()):
+            target = match.group(1) or match.group(2)
+            shown.setdefault((page.parent / target).resolve(), []).append(page.name)
+    return shown
+
+
+def test_every_figure_referenced_exists_and_is_made_by_the_figures_script() -> None:
+    """Each image shown is a file of docs/figures that docs/make_figures.py makes: the
+    quick-start figure by its own function (run by the next test), every other by the
+    notebook it names, whose source saves exactly that file (tests/test_notebooks.py
+    checks the run writes it). Every PNG in docs/figures is one of them."""
+    module = _make_figures_parser()
+    shown = _referenced_figures()
+    assert len(shown) >= 10, "the image pattern no longer finds the figures"
+    for path, pages in shown.items():
+        assert path.is_file(), f"{pages}: {path} missing"
+        assert path.parent == DOCS / "figures", f"{pages}: {path} not in docs/figures"
+        assert path.stem in module.FIGURES, f"{path.name} is not made by docs/make_figures.py"
+        if path.stem == "quickstart":
+            continue
+        notebook = ROOT / "analysis" / module.NOTEBOOK_FIGURES[path.stem]
+        saved = re.findall(r"savefig\(\s*[\"']figures/([\w-]+)\.png", notebook.read_text())
+        assert path.stem in saved, f"analysis/{notebook.name} does not save {path.name}"
+    for png in (DOCS / "figures").glob("*.png"):
+        assert png.stem in module.FIGURES, f"docs/figures/{png.name} is made by nothing"
+
+
+def test_every_notebook_has_its_page() -> None:
+    """The nav lists one generated page per analysis notebook (the strict build fails on
+    a generated page outside the nav, and on a nav entry nothing generates)."""
+    hook = (DOCS / "hooks" / "notebooks.py").read_text()
+    assert f'PAGES = "{NOTEBOOK_PAGES.rstrip("/")}"' in hook
+    assert "docs/hooks/notebooks.py" in (ROOT / "mkdocs.yml").read_text()
+    generated = sorted(page for page in NAV if page.startswith(NOTEBOOK_PAGES))
+    notebooks = sorted((ROOT / "analysis").glob("*.py"))
+    assert generated == sorted(f"{NOTEBOOK_PAGES}{path.stem}.md" for path in notebooks)
+    for path in notebooks:
+        assert "../shared" not in path.read_text(), path.name
 
 
 def test_figures_script_makes_the_quickstart_figure(tmp_path) -> None:

@@ -1,7 +1,9 @@
-"""Every analysis notebook (jupytext .py) runs end to end at a reduced size."""
+"""Every analysis notebook (jupytext .py) runs end to end at a reduced size and writes the
+figures docs/make_figures.py copies from it."""
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import subprocess
 import sys
@@ -9,7 +11,18 @@ from pathlib import Path
 
 import pytest
 
-NOTEBOOKS = sorted((Path(__file__).resolve().parents[1] / "analysis").glob("*.py"))
+ROOT = Path(__file__).resolve().parents[1]
+NOTEBOOKS = sorted((ROOT / "analysis").glob("*.py"))
+
+
+def _figures_made_by(notebook: Path) -> set[str]:
+    """The PNGs docs/make_figures.py copies from this notebook's run."""
+    spec = importlib.util.spec_from_file_location("make_figures", ROOT / "docs" / "make_figures.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return {
+        f"{name}.png" for name, source in module.NOTEBOOK_FIGURES.items() if source == notebook.name
+    }
 
 
 SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -35,7 +48,9 @@ def test_notebook_runs(notebook: Path, tmp_path) -> None:
         capture_output=True,
         timeout=600,
     )
-    assert any((tmp_path / "figures").glob("*.png"))
+    made = {path.name for path in (tmp_path / "figures").glob("*.png")}
+    assert made
+    assert _figures_made_by(notebook) <= made, "a figure docs/make_figures.py copies is missing"
 
 
 def test_there_are_notebooks() -> None:

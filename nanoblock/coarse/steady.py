@@ -48,7 +48,7 @@ def steady_level(
     n_batches: int = BATCHES,
 ) -> tuple[float, float]:
     """Batch mean and standard error of ``quantity`` (default: the friction coefficient)
-    over the samples whose load-point displacement lies in [``start``, ``end``] [m]."""
+    over the samples whose load-point displacement [m] lies in [``start``, ``end``]."""
     travel = run["load_point_displacement"].values
     window = (travel >= start) & (travel <= end)
     values = run["friction_coefficient"] if quantity is None else quantity

@@ -191,7 +191,7 @@ def measure_onset(
 def renewal_onset(a: float, b: float, memory_length: float) -> tuple[float, float]:
     """(K/W)_c [1/m] and the onset pulsation in units of V/D0 from the linear theory of the
     renewal model: contacts die at rate r = V/D0 per unit time and the area term of the
-    friction, b <ln(age)>, responds to ln V through -ln(1 + s/r) / (s/r) (the aging law's
+    friction, b E[ln(age)], responds to ln V through -ln(1 + s/r) / (s/r) (the aging law's
     response is -1/(1 + s Dc/V)). The quasi-static Hopf condition
     s A - B r ln(1 + s/r) + (K/W) V = 0 at s = i y r gives atan(y)/y = A/B and
     (K/W)_c D0 = (B/2) ln(1 + y^2) (compare 001/Eqs. 9-10). Needs 0 < A < B."""

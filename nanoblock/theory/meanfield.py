@@ -615,8 +615,8 @@ def sample_q_stationary(
     Returns
     -------
     ndarray
-        Samples rho~ in [0, rho~_max] [m] (in [-rho~_max, rho~_max] with back jumps),
-        shape (n,). With strength classes, each draw comes from a uniformly chosen class.
+        Samples rho~ [m], shape (n,), in [0, rho~_max] (in [-rho~_max, rho~_max] with
+        back jumps). With strength classes, each draw comes from a uniformly chosen class.
     """
     if np.ndim(velocity) != 0:
         raise ValueError("velocity must be a scalar [m/s]")
@@ -640,7 +640,7 @@ def sample_q_stationary(
 
 
 def steady_stress(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
-    """Steady friction stress sigma_s(V) = <sigma> under Q_st [Pa] (001/Eq. 28).
+    """Steady friction stress sigma_s(V) = E[sigma] under Q_st [Pa] (001/Eq. 28).
 
     sigma_s = sigma_a N_1 / N_0 with N_k = int_0^1 x^k exp(-I(x)) dx, i.e.
     sigma_a E[x_f^2] / (2 E[x_f]) over the firing stress x_f. Adaptive Gauss-Legendre
@@ -699,7 +699,7 @@ def log_slope(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
 def strength_factors(spread: float, n_classes: int) -> FloatArray:
     """sigma_a of each strength class over the mean sigma_a (dimensionless, mean 1).
 
-    sigma_a / <sigma_a> is lognormal with log-standard deviation ``spread`` (physics.md
+    sigma_a / E[sigma_a] is lognormal with log-standard deviation ``spread`` (physics.md
     section 5, strength_heterogeneity); class k is its k-th of ``n_classes``
     equal-probability bins, represented by the bin's conditional mean
     n [Phi(z_{k+1} - s) - Phi(z_k - s)], z_k = Phi^-1(k / n), so the mean is exact.
@@ -920,7 +920,7 @@ def log_slope_asymptotic(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArr
 
 
 def steady_stress_loglaw(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArray:
-    """Linear log law sigma_bar [1 + alpha ln(V / V*)] [Pa] (001/Eq. 30).
+    """Linear log law sigma_bar (1 + alpha ln(V / V*)) [Pa] (001/Eq. 30).
 
     The linearisation of the exact result near V*; off by 1-7 % at lab velocities for
     u ~ 25-50 (physics.md section 1).
@@ -935,6 +935,6 @@ def steady_stress_loglaw(velocity: ArrayLike, joint: MeanFieldJoint) -> FloatArr
     Returns
     -------
     ndarray
-        sigma_bar [1 + alpha ln(V / V*)] [Pa], shaped like ``velocity``.
+        sigma_bar (1 + alpha ln(V / V*)) [Pa], shaped like ``velocity``.
     """
     return joint.sigma_bar * (1.0 + joint.alpha * np.log(_velocity(velocity) / joint.v_star))
