@@ -27,7 +27,7 @@ from nanoblock.kernels.chain import reduced_stresses
 from nanoblock.kernels.contacts import ageing_rate, total_contact_area
 from nanoblock.kernels.layout import PARAMS, SLIDER
 from nanoblock.kernels.rng import seed_streams
-from nanoblock.kernels.stepper import advance_to_sample
+from nanoblock.kernels.stepper import advance_to_sample, following_velocity
 from nanoblock.params import (
     Scenario,
     ScenarioError,
@@ -225,11 +225,17 @@ def initial_state(
     events = np.zeros(shape[0], dtype=np.int64)
     state = InterfaceState(y, h, age, slip, lifetime, events, streams)
     slider = state.slider[0]
-    slider["velocity"] = scenario.loading.steps[0].load_velocity
     area = total_contact_area(age, params[0])
     forces = (area * sigma_a * y[k::n_classes].mean() for k, (sigma_a, _) in enumerate(strength))
     slider["force"] = sum(forces) / n_classes
     slider["stiffness"] = area * strength[0, 0] / strength[0, 1]
+    # the slider starts at the load point's velocity: the pinned response plus the drift
+    load_velocity = scenario.loading.steps[0].load_velocity
+    following = following_velocity(
+        load_velocity, float(slider["stiffness"]), scenario.loading.stiffness
+    )
+    slider["drift"] = slider["smooth_drift"] = load_velocity - following
+    slider["smooth_noise"] = abs(load_velocity - following)  # not measured yet
     if np.isfinite(scenario.loading.stiffness):
         # start in balance: the drive spring already carries the initial interface force
         slider["load_point"] = 0.0
@@ -290,7 +296,7 @@ class Run:
         if self.next_sample:
             velocity = (position - self.last_position) / interval
         else:
-            velocity = float(slider["velocity"])
+            velocity = self.scenario.loading.steps[0].load_velocity
         self.last_position = position
         self.next_sample += 1
         force = float(slider["force"])

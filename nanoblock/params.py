@@ -419,7 +419,8 @@ class Run(_Section):
     initial_state: Literal["unloaded", "steady"] = Field("unloaded")
     step_slip: Positive | None = Field(
         None,
-        description="slider slip per internal step [m]; default rho~_max / 4 with a finite "
+        description="slider slip per internal step driven by depinnings (with a finite "
+        "spring; the whole slip with a rigid one) [m]; default rho~_max / 8 with a finite "
         "spring, unlimited with a rigid one",
     )
     snapshot_every: Count = Field(0, ge=0, description="store block snapshots every N samples")
@@ -453,12 +454,13 @@ class Scenario(_Section):
     def step_slip(self) -> float:
         """Resolved slider slip per internal step [m].
 
-        A finite spring needs short steps (the slider's velocity is predicted from the
-        previous step); a rigid one (K = inf) prescribes the slider path, so the blocks'
-        exact ramps run uninterrupted to the next sample or segment end (inf)."""
+        A finite spring needs short steps of the depinnings' drift (predicted from the
+        previous step; the pinned response is exact, :mod:`nanoblock.kernels.stepper`);
+        a rigid one (K = inf) prescribes the slider path, so the blocks' exact ramps run
+        uninterrupted to the next sample or segment end (inf)."""
         if self.run.step_slip is not None:
             return self.run.step_slip
-        return np.inf if self.loading.stiffness == np.inf else self.joint.rho_max / 4
+        return np.inf if self.loading.stiffness == np.inf else self.joint.rho_max / 8
 
     def with_seed(self, seed: int) -> Scenario:
         """Copy of the scenario with ``run.seed`` set."""

@@ -22,7 +22,7 @@ from nanoblock.theory.meanfield import (
 )
 from tests.conftest import RHO_MAX, scenario
 from tests.naive_meanfield import simulate_mean_field
-from tests.tolerances import SIGNIFICANCE, STEADY_STRESS_RTOL, Z_MAX
+from tests.tolerances import FORCE_BALANCE_RTOL, SIGNIFICANCE, STEADY_STRESS_RTOL, Z_MAX
 
 VELOCITIES = [1e-9, 1e-7, 1e-5, 1e-3, 1e-1, 1.0, 10.0]
 """Seven drive velocities over ten decades, up to 2 V* (saturation), m/s."""
@@ -33,11 +33,24 @@ spacing is incommensurate with rho~_max: at saturation (V > V*) blocks depin
 deterministically and keep their phases, so samples one period apart would repeat."""
 
 
-def steady_run(velocity: float, seed: int = 11, snapshot_every: int = 0, n_contacts: int = 40):
+STIFF_VELOCITIES = [1e-9, 1e-8, 1e-7, 1e-5, 1e-3]
+"""Five drive velocities over six decades for the stiff-spring sweep, m/s."""
+
+STIFF = 1e12
+"""A stiff frame, K / W = 1e12 1/m (W = 1 N): K = 275 k_int, the interface's stiffness."""
+
+
+def steady_run(
+    velocity: float,
+    seed: int = 11,
+    snapshot_every: int = 0,
+    n_contacts: int = 40,
+    stiffness: float = float("inf"),
+):
     run = scenario(
         interface={"n_contacts": n_contacts, "blocks_per_contact": 500},
         loading={
-            "stiffness": float("inf"),
+            "stiffness": stiffness,
             "steps": [{"velocity": velocity, "displacement": CYCLES * RHO_MAX}],
         },
         run={
@@ -74,6 +87,21 @@ def test_steady_stress_matches_quadrature_at_each_velocity(sweep) -> None:
         assert abs(stress - theory) < Z_MAX * error + 1e-4 * theory, (velocity, error)
     # saturation: at 2 V* the stress is within 1 % of sigma_a / 2
     assert measured[10.0][0] == pytest.approx(0.5e8, rel=1e-2)
+
+
+def test_steady_stress_on_a_stiff_spring_matches_quadrature() -> None:
+    """The finite-spring stepper at K / W = 1e12 1/m: the slider follows the load point
+    in closed form between depinnings and the depinnings' drift (~k_int / K of the slip)
+    is predicted, so the stress is the rigid drive's, 001/Eq. 28 within 0.5 % and Z_MAX
+    standard errors, and every sample is in force balance."""
+    for velocity in STIFF_VELOCITIES:
+        run, result = steady_run(velocity, seed=12, stiffness=STIFF)
+        stress, error = measured_stress(result)
+        theory = float(steady_stress(velocity, mean_field_joint(run)))
+        assert abs(stress / theory - 1) < STEADY_STRESS_RTOL, (velocity, stress, theory)
+        assert abs(stress - theory) < Z_MAX * error + 1e-4 * theory, (velocity, error)
+        spring = STIFF * (result.load_point_displacement - result.slider_displacement)
+        np.testing.assert_allclose(spring, result.friction_force, rtol=FORCE_BALANCE_RTOL)
 
 
 def test_power_a_warmer_joint_is_rejected(sweep) -> None:

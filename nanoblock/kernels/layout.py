@@ -28,7 +28,7 @@ PARAMS = np.dtype(
         ("state_cutoff", np.float64),  # v_theta [m/s] of 000/Eq. 7 (0: the clock always runs)
         ("contact_area", np.float64),  # Sigma_0 of one contact at birth [m^2]
         ("stiffness", np.float64),  # drive spring K [N/m] (inf: rigid drive)
-        ("step_slip", np.float64),  # slider slip per internal step [m]
+        ("step_slip", np.float64),  # drift (rigid: whole) slider slip per internal step [m]
         ("force_step", np.float64),  # max spring force change per step / F (transients)
     ]
 )
@@ -40,7 +40,9 @@ SLIDER = np.dtype(
         ("position", np.float64),  # X, balanced (pending jump included) [m]
         ("load_point", np.float64),  # X_L(t) [m]
         ("pending", np.float64),  # elastic jump still to apply to the blocks [m]
-        ("velocity", np.float64),  # predicted slider velocity for the next step [m/s]
+        ("drift", np.float64),  # predicted slider velocity beyond the pinned response [m/s]
+        ("smooth_drift", np.float64),  # drift averaged over recent depinnings [m/s]
+        ("smooth_noise", np.float64),  # standard deviation of smooth_drift [m/s]
         ("last_dt", np.float64),  # previous internal step [s]
         ("force", np.float64),  # interface force F at the last step [N]
         ("stiffness", np.float64),  # interface stiffness dF/dX at the last step [N/m]

@@ -1,16 +1,36 @@
 """The slider in quasi-static force balance with the drive spring (physics.md section 2).
 
-K (X_L(t) - X) = F, with F the sum of the contacts' forces. The slider path is advanced in
-internal steps of at most ``step_slip`` of slip: within a step it slides at the velocity
-of the previous step (blocks see an exact linear ramp, events and renewals exact on it);
-at the step's end the balance is restored by an elastic jump
-dX = (K (X_L - X) - F) / (K + k_int) (k_int = dF/dX of the pinned interface), applied at
-the start of the next step, or at once, iterated to convergence, before a stored sample.
-The steps are taken on the slip scale, so the cost follows events, not simulated time;
-in transients a step may also change the spring force K |V_L - V| dt by at most
-``force_step`` F (a fraction of alpha F, so the slider velocity changes by a few percent
-per step and the prediction lags little). A rigid spring (K = inf) needs no prediction:
-the slider moves with the load point, velocity steps included.
+K (X_L(t) - X) = F, with F the sum of the contacts' forces. While every block stays
+pinned the interface is linear in the slider position, F = F0 + k_int (X - X0)
+(k_int = dF/dX), so the balanced slider follows the load point at the closed-form
+velocity V_f = K V_L / (K + k_int) (:func:`following_velocity`; V_L itself for a rigid
+drive, K = inf); each depinning drops F and carries the slider on by its drop over
+K + k_int. The path is advanced in internal steps: within a step the blocks see the
+exact ramp at V_f plus the depinnings' drift D, the drift realized over the previous
+step (events and renewals exact on that ramp); at the step's end the balance is restored
+by the elastic jump dX = (K (X_L - X) - F) / (K + k_int), applied at the start of the
+next step (or at once, iterated to convergence, before a stored sample), and D += dX / dt.
+
+Step sizes. The drift may advance the slider by at most ``step_slip`` per step (at the
+larger of the smoothed drift and the steady one, V_L - V_f), and in transients the drive
+mismatch V_L - V_f - D may change the spring force by at most ``force_step`` F per step (a
+fraction of alpha F: the slider velocity changes by about 0.5 % per step). Both read the
+drift smoothed over about n_blocks / 8 depinnings (at most 1/8 of it from one step), and
+the mismatch counts only beyond ``_NOISE_Z`` standard deviations of that smoothed drift's
+depinning noise. Two reasons, both measured against an event-by-event reference
+(:mod:`tests.naive_quasistatic`): the last step's drift scatters by 1/sqrt(depinnings)
+(a stiff spring turns every depinning into a velocity spike), and a limiter reading it
+shrank the steps without bound at K/W >= 1e9 1/m; and steps whose length followed that
+noise (longer whenever the prediction ran ahead) biased the velocity-step transient by
+up to 10 % of its rise, the more so the smaller the force step. A stiff spring leaves a
+drift of order k_int / K, so its steps run to the samples like a rigid drive's; a soft
+one steps every ``step_slip`` of slip. Default rho~_max / 8; measured: at rho~_max / 16 the
+transient after a velocity step within the reference's noise (0.1e-3 of mu); at
+rho~_max / 4, the old default, up to 1e-3 (6 % of its rise) high, and the direct effect
+of a 1 -> 10 um/s spike at K/W = 1e8 1/m 12-18 % high (+5 % at rho~_max / 8, -1 % to
+-5 % at / 16): the old stepper's noise-following steps had offset part of that lag.
+K = inf is the rigid drive: no drift, no jump, ``step_slip`` bounds the slider's own slip
+(unlimited by default).
 
 ``slider`` is a one-element record array of :data:`nanoblock.kernels.layout.SLIDER`;
 ``strength`` and ``tables`` the strength classes of :mod:`.layout`; ``protocol`` is
@@ -28,6 +48,21 @@ from nanoblock.kernels.contacts import advance_contacts
 _BALANCE = 1e-13
 """Relative force residual at which a stored sample counts as balanced."""
 
+_NOISE_Z = 3.0
+"""Drive mismatches within this many standard deviations of the smoothed drift's scatter
+(``slider.smooth_noise``) are taken for noise, not a transient."""
+
+_WINDOW = 0.125
+"""The smoothed drift averages over about this many depinnings per block."""
+
+_MAX_WEIGHT = 0.125
+"""Largest weight of one step in the smoothed drift: step sizes must not follow the last
+step's noise."""
+
+_DROP = 2.0
+"""Force drop of one depinning in units of the mean block force F / n_blocks (a mean-field
+block fires at about twice the mean stress)."""
+
 
 @kernel
 def load_point(t: float, protocol: np.ndarray) -> tuple[float, float, float]:
@@ -36,6 +71,16 @@ def load_point(t: float, protocol: np.ndarray) -> tuple[float, float, float]:
     k = max(np.searchsorted(starts, t, side="right") - 1, 0)
     k = min(k, starts.shape[0] - 2)
     return protocol[2, k] + protocol[1, k] * (t - starts[k]), protocol[1, k], starts[k + 1]
+
+
+@kernel
+def following_velocity(load_velocity: float, interface_stiffness: float, spring: float) -> float:
+    """Slider velocity while every block stays pinned [m/s]: K V_L / (K + k_int), from
+    K (X_L - X) = F0 + k_int (X - X0) (K = ``spring``, k_int [N/m]); V_L for a rigid
+    drive (its K -> inf limit)."""
+    if spring == np.inf:
+        return load_velocity
+    return spring * load_velocity / (spring + interface_stiffness)
 
 
 @kernel
@@ -86,29 +131,46 @@ def advance_to(
     """
     params = param_array[0]
     s = slider[0]
+    spring = params.stiffness
+    blocks = state[0].size
+    window = max(1.0, blocks * _WINDOW)
     while s.time < t_stop:
         _, load_velocity, segment_end = load_point(s.time, protocol)
-        if params.stiffness == np.inf:  # a rigid spring: the slider is the load point
-            s.velocity = load_velocity
+        following = following_velocity(load_velocity, s.stiffness, spring)
         target = min(t_stop, segment_end)
         dt = target - s.time
-        if s.velocity != 0.0:
-            dt = min(dt, params.step_slip / abs(s.velocity))
-        mismatch = params.stiffness * abs(load_velocity - s.velocity)
-        if mismatch > 0.0 and params.stiffness != np.inf and s.force > 0.0:
-            dt = min(dt, params.force_step * s.force / mismatch)
+        # step sizes from the smoothed drift only: a step that lasted longer whenever the
+        # last step's noisy drift ran ahead (or behind) would bias the blocks' path
+        drift_rate = max(abs(s.smooth_drift), abs(load_velocity - following))
+        if spring == np.inf:  # a rigid drive prescribes the whole path: step_slip bounds it
+            drift_rate = abs(load_velocity)
+        mismatch = abs(load_velocity - following - s.smooth_drift) - _NOISE_Z * s.smooth_noise
+        if spring != np.inf and mismatch > 0.0 and s.force > 0.0:
+            dt = min(dt, params.force_step * s.force / (spring * mismatch))
+        if drift_rate > 0.0:
+            dt = min(dt, params.step_slip / drift_rate)
         if s.last_dt > 0.0:
             dt = min(dt, 2.0 * s.last_dt)
+        velocity = following + s.drift
+        before = np.sum(events)
         _advance_interface(
-            slider, state, streams, events, scratch, param_array, strength, tables, s.velocity, dt
+            slider, state, streams, events, scratch, param_array, strength, tables, velocity, dt
         )
-        start = s.position
-        moved = s.position + s.velocity * dt
+        moved = s.position + velocity * dt
         s.time = target if dt >= target - s.time else s.time + dt
         s.load_point, _, _ = load_point(s.time, protocol)
         s.pending = _balance_jump(moved, s.load_point, s.force, s.stiffness, params)
         s.position = moved + s.pending
-        s.velocity = (s.position - start) / dt
+        if spring != np.inf:
+            s.drift += s.pending / dt
+            count = np.sum(events) - before
+            weight = min(_MAX_WEIGHT, (count + 1.0) / window)
+            drop = _DROP * s.force / (blocks * (spring + s.stiffness))
+            s.smooth_drift += weight * (s.drift - s.smooth_drift)
+            variance = (1.0 - weight) ** 2 * s.smooth_noise**2 + weight**2 * count * (
+                drop / dt
+            ) ** 2
+            s.smooth_noise = np.sqrt(variance)
         s.last_dt = dt
         s.steps += 1
 
