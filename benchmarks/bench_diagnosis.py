@@ -30,10 +30,10 @@ sys.path.insert(0, str(ROOT))
 
 from nanoblock.diagnosis import diagnose, load_for_diagnosis  # noqa: E402
 from tests.rsf_synthetic import record  # noqa: E402
+from tests.test_real_records import two_loads  # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data"
 TARGET_SECONDS = {"p655_75MPa_vstep_2p3to23.csv": 60.0, "combined_2p3to23": 120.0}
-COMBINED = ("p655_75MPa_vstep_2p3to23.csv", "p655_100MPa_vstep_2p3to23.csv")
 
 
 def timed(data: xr.Dataset) -> dict:
@@ -58,24 +58,6 @@ def timed(data: xr.Dataset) -> dict:
     }
 
 
-def combined() -> xr.Dataset:
-    """The two 2.3 -> 23 um/s steps as runs 0 and 1 of one record, each with its normal
-    force (normal stress x the 5 x 5 cm contact): the machine stiffness K [N/m] acts on each
-    run's own load."""
-    parts = []
-    for run, name in enumerate(COMBINED):
-        data = load_for_diagnosis(DATA / name)
-        force = float(data.attrs["normal_stress"]) * 25e-4
-        n = data.sizes["sample"]
-        parts.append(
-            data.assign(run=("sample", np.full(n, run)), normal_force=("sample", np.full(n, force)))
-        )
-    out = xr.concat(parts, dim="sample", combine_attrs="drop_conflicts")
-    # the recipe's shear stiffness 0.1 MPa/um over the 5 x 5 cm contact, in N/m
-    out.attrs.update(kind="time_series", stiffness=1e11 * 25e-4)
-    return out
-
-
 def main() -> None:
     rng = np.random.default_rng(0)
     truth = {"mu0": 0.6, "a": 0.01, "b": 0.013, "dc": 2e-5, "v0": 1e-6}
@@ -85,7 +67,7 @@ def main() -> None:
     if DATA.is_dir():
         for path in sorted(DATA.glob("*vstep*.csv")):
             results[path.name] = timed(load_for_diagnosis(path))
-        results["combined_2p3to23"] = timed(combined())
+        results["combined_2p3to23"] = timed(two_loads(DATA))
     for name, entry in results.items():
         seconds, cause = entry["seconds"], entry["cause"]
         print(f"{name:38s} {entry['samples']:6d} samples {seconds:6.1f} s  {cause}")

@@ -16,7 +16,7 @@ from scipy.stats import binom
 
 from nanoblock.measured import DataError, load_measurement
 from nanoblock.rsf.apparatus import FIG3_PROTOCOL, SURFACES
-from nanoblock.rsf.fit import LOAD_EXPONENT, STIFFNESS, TREND, fit_rsf
+from nanoblock.rsf.fit import COHESION, LOAD_EXPONENT, STIFFNESS, TREND, fit_rsf
 from nanoblock.rsf.laws import law
 from nanoblock.rsf.report import write_fit
 from tests.diagnosis_synthetic import SILICON_APPARATUS, naive_clamped
@@ -113,6 +113,27 @@ def test_load_dependent_memory_length_is_recovered() -> None:
     )
     assert extended.rms_residual == pytest.approx(NOISE, rel=0.2)
     assert fit_rsf(data, "aging", stiffness=k).rms_residual > 1.5 * NOISE
+
+
+def test_friction_level_falling_with_load_is_fitted_as_cohesion() -> None:
+    """Runs at 100, 200 and 400 N (one protocol, reference integrator) whose friction
+    levels follow mu0 + kappa (W_ref / W - 1), kappa = c / sigma_ref = 0.02 (a cohesion
+    beside the contacts): kappa is recovered within z_bound() standard errors, and the
+    base fit's shared mu0 leaves a misfit far above the noise."""
+    rng = np.random.default_rng(23)
+    truth = {"mu0": 0.6, "a": 0.01, "b": 0.014, "dc": 1e-5, "v0": 1e-6}
+    forces, kappa, k = [100.0, 200.0, 400.0], 0.02, 3000.0
+    w_ref = float(np.exp(np.mean(np.log(forces))))
+    parts = [
+        record("aging", {**truth, "mu0": truth["mu0"] + kappa * (w_ref / w - 1.0)},
+               "velocity_step", k, rng, n_samples=400)
+        for w in forces
+    ]  # fmt: skip
+    data = combine(parts, forces)
+    extended = fit_rsf(data, "aging", stiffness=k, cohesion=True)
+    assert abs(extended.params[COHESION] - kappa) < z_bound() * extended.stderr[COHESION]
+    assert extended.rms_residual == pytest.approx(NOISE, rel=0.2)
+    assert fit_rsf(data, "aging", stiffness=k).rms_residual > 10 * NOISE
 
 
 def test_held_out_samples_do_not_enter_the_fit() -> None:

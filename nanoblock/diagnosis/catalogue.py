@@ -27,6 +27,8 @@ class RsfVariant:
     """K/W fitted even where the metadata state it."""
     initial_state: bool = False
     """A free initial state per run (the record does not start in steady sliding)."""
+    cohesion: bool = False
+    """A friction level mu0 + (c / sigma_ref) (W_ref / W - 1) across runs at several loads."""
     explore: tuple[str, ...] = ()
     """Parameters searched on a grid when the fit is warm-started from the base fit."""
 
@@ -193,6 +195,20 @@ CATALOGUE: dict[str, Effect] = {
             {"time_series": RsfVariant("aging", initial_state=True)},
             "a friction time series with slip before the first step",
             ranges={"initial_state_offset": (-10.0, 10.0)},
+        ),
+        Effect(
+            "load_dependent_level",
+            "the friction level falls with normal stress: a cohesive (or adhesive) shear "
+            "strength c that does not grow with the load adds c / sigma to mu, where the "
+            "nanoblock interface's mu0 = sigma_s / p is the same at every load (Amontons)",
+            "a constant friction offset between runs at different normal loads, larger at "
+            "the lower load, that no rate or state parameter removes",
+            {"cohesion_ratio": "c / sigma at the runs' geometric-mean load"},
+            "(none yet: a constant cohesive force c A beside the contacts' force)",
+            {"time_series": RsfVariant("aging", cohesion=True)},
+            "friction time series at two or more normal loads (runs with normal_force)",
+            varies="normal_force",
+            ranges={"cohesion_ratio": (0.0, 0.3)},
         ),
         Effect(
             "machine_stiffness",

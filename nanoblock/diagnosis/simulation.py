@@ -260,6 +260,8 @@ NOT_SIMULATED = {
     "aging_rate": "the slip law's slip-only healing has no exact renewal-model counterpart "
     "on time series (interface.state_cutoff_velocity is the closest option)",
     "slip_trend": "wear and gouge evolution are outside the nanoblock model",
+    "load_dependent_level": "a cohesive force beside the contacts is not a simulator option "
+    "yet, and the check matches each run's friction level already",
     "non_steady_history": "the simulation starts in steady sliding at the first velocity; a "
     "preceding loading step is not yet aligned with the record's time origin",
     "unstable_sliding": "stick-slip is recognised from the record's drops, not fitted",

@@ -132,7 +132,7 @@ class Measurement:
         result = fit_rsf(
             self.data, surrogate.law, trend=surrogate.trend,
             load_exponent=surrogate.load_exponent, fit_stiffness=surrogate.fit_stiffness,
-            initial_state=surrogate.initial_state, holdout=holdout,
+            initial_state=surrogate.initial_state, cohesion=surrogate.cohesion, holdout=holdout,
             initial=start, search=True if start is None else surrogate.explore,
         )  # fmt: skip
         summary = result.to_json()

@@ -41,6 +41,10 @@ TREND = "slip_trend"
 """Name of the linear trend of friction with load-point displacement [1/m]."""
 LOAD_EXPONENT = "dc_load_exponent"
 """Name of the exponent n of a load-dependent memory length D_c (W / W_ref)^n."""
+COHESION = "cohesion_ratio"
+"""Name of c / sigma_ref: a cohesive shear strength c that does not grow with the normal
+load adds c / sigma to mu, so the friction level of runs at several loads W goes as
+mu0 + (c / sigma_ref) (W_ref / W - 1) (Amontons' load-independent mu0 at c = 0)."""
 INITIAL_OFFSET = "initial_state_offset"
 """Prefix of the fitted initial-state offsets ln(theta(0) / theta_ss), one per run
 (``initial_state_offset_0``, ...): a record that does not start in steady sliding."""
@@ -312,8 +316,8 @@ def _standard_guess(runs_: list[RunData]) -> dict[str, float]:
 def _search_bounds(problem: _Problem, x0: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Box of the search in the scaled space: memory lengths between 1e-6 and 1e3 times
     the load-point travel L of the longest run (a D_c outside cannot be told from the
-    data; tinier ones only make the ODE stiff), K/W within 1e4 of its first guess, and
-    positive coefficients (a, alpha, ...) above zero."""
+    data; tinier ones only make the ODE stiff), K/W within 1e4 of its first guess,
+    positive coefficients (a, alpha, ...) above zero and a cohesion >= 0."""
     travel = problem.travel
     lower, upper = np.full(x0.size, -np.inf), np.full(x0.size, np.inf)
     positive = {spec.name for spec in problem.law.parameters if spec.positive}
@@ -324,6 +328,8 @@ def _search_bounds(problem: _Problem, x0: FloatArray) -> tuple[FloatArray, Float
             lower[i], upper[i] = math.log(1e-6 * travel), math.log(1e3 * travel)
         elif name == STIFFNESS:
             lower[i], upper[i] = x0[i] - math.log(1e4), x0[i] + math.log(1e4)
+        elif name == COHESION:
+            lower[i] = 0.0  # a cohesion adds shear strength
     return lower, upper
 
 
@@ -441,7 +447,7 @@ class _Setup:
 def _free_names(lw: Law, free: Sequence[str] | None, default: Sequence[str]) -> list[str]:
     names = list(free if free is not None else default)
     unknown = {n for n in names if not n.startswith(INITIAL_OFFSET)}
-    unknown -= set(lw.names) | {STIFFNESS, TREND, LOAD_EXPONENT}
+    unknown -= set(lw.names) | {STIFFNESS, TREND, LOAD_EXPONENT, COHESION}
     if unknown:
         raise ValueError(f"cannot fit {sorted(unknown)}: law {lw.name!r} takes {list(lw.names)}")
     return names
@@ -460,6 +466,7 @@ def _problem(
         STIFFNESS: True,
         TREND: False,
         LOAD_EXPONENT: False,
+        COHESION: False,
     }
     log_scale.update({name: False for name in free_names if name.startswith(INITIAL_OFFSET)})
     scale = float(np.sqrt(np.mean(np.concatenate(observed) ** 2))) or 1.0
@@ -483,7 +490,8 @@ def reference_load(forces: Sequence[float], wanted: bool) -> float:
     known = np.unique([f for f in forces if math.isfinite(f) and f > 0.0])
     if known.size < 2 or len(known) != len(np.unique(forces)):
         raise DataError(
-            "a load-dependent memory length needs runs at two or more normal forces, each "
+            "a load-dependent memory length or friction level needs runs at two or more "
+            "normal forces, each "
             "with its normal force (column 'normal_force' or a run per load)"
         )
     return float(np.exp(np.mean(np.log(known))))
@@ -507,6 +515,8 @@ class _Options:
 
     fit_stiffness: bool = False
     initial_state: bool = False
+    cohesion: bool = False
+    """A friction level mu0 + c/sigma_ref (W_ref / W - 1) across runs at several loads."""
 
 
 def _time_series_setup(
@@ -549,10 +559,16 @@ def _time_series_setup(
     if load_exponent:
         free_names.append(LOAD_EXPONENT)
         params.setdefault(LOAD_EXPONENT, 0.0)
+    levels = [0.0] * len(prepared)
+    if options.cohesion:
+        w_level = reference_load([run.normal_force for run in prepared], True)
+        levels = [w_level / run.normal_force - 1.0 for run in prepared]
+        free_names.append(COHESION)
+        params.setdefault(COHESION, 0.0)
 
     def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
         out = []
-        for run, offset, scale in zip(prepared, offsets, scales, strict=True):
+        for run, offset, scale, level in zip(prepared, offsets, scales, levels, strict=True):
             law_params = _law_params(lw, values, run.normal_force, w_ref)
             start = None
             if offset in values:  # ln theta_i(0) = ln theta_ss(V(0)) + offset
@@ -562,7 +578,8 @@ def _time_series_setup(
                 lw, law_params, run.history, run.time, values[STIFFNESS] * scale, rtol=rtol,
                 initial_state=start, max_steps=_FIT_MAX_STEPS,
             )  # fmt: skip
-            out.append(solution.friction + values.get(TREND, 0.0) * run.load_point_displacement)
+            trend = values.get(TREND, 0.0) * run.load_point_displacement
+            out.append(solution.friction + trend + values.get(COHESION, 0.0) * level)
         return out
 
     travel = max(float(np.ptp(run.load_point_displacement)) for run in prepared)
@@ -763,6 +780,7 @@ def fit_rsf(
     load_exponent: bool = False,
     fit_stiffness: bool = False,
     initial_state: bool = False,
+    cohesion: bool = False,
     free: Sequence[str] | None = None,
     initial: Mapping[str, float] | None = None,
     holdout: Sequence[NDArray[np.bool_]] | None = None,
@@ -781,7 +799,8 @@ def fit_rsf(
     D_c (W / W_ref)^n across runs at several normal forces (time series and clamped
     samples). ``fit_stiffness`` fits K/W of a time series even when the metadata state it
     (starting there); ``initial_state`` fits one offset ln(theta(0) / theta_ss(V(0))) per
-    run (``initial_state_offset_<run>``) for records that do not start in steady sliding.
+    run (``initial_state_offset_<run>``) for records that do not start in steady sliding;
+    ``cohesion`` fits :data:`COHESION`, a friction level falling with the load across runs.
     ``free`` overrides the free parameters; ``initial`` the starting values (and
     fixes any law parameter that is not free). ``holdout`` (one boolean array per run,
     True = held out) hides samples from the fit; the result's model and residuals still
@@ -796,7 +815,7 @@ def fit_rsf(
     kind = data.attrs.get("kind")
     initial = dict(initial or {})
     _check_fittable(data)
-    options = _Options(fit_stiffness, initial_state)
+    options = _Options(fit_stiffness, initial_state, cohesion)
     if kind == "time_series":
         setup = _time_series_setup(
             data, lw, stiffness, trend, load_exponent, free, initial, options
