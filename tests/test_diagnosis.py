@@ -263,6 +263,30 @@ def test_simulation_check_switches_on_a_second_contact_population() -> None:
     assert check["extended"]["systematic"] < 0.8 * check["base"]["systematic"]
 
 
+def test_an_extension_whose_fit_fails_is_reported_not_raised(monkeypatch) -> None:
+    """A candidate whose integration cannot finish (LSODA's 'excess work' at its optimum,
+    as on a hidden-matrix record) is listed as not testable with the error; one whose
+    held-out refits fail gets an infinite forecast error and cannot be the cause."""
+    from nanoblock.diagnosis.catalogue import BASE
+    from nanoblock.diagnosis.surrogates import Measurement
+
+    fit = Measurement.fit
+
+    def failing(self, surrogate, holdout=None, start=None):
+        if getattr(surrogate, "law", "") == "cutoff" or (
+            holdout is not None and surrogate is not BASE["time_series"]
+        ):
+            raise RuntimeError("spring-slider integration failed: Excess work done")
+        return fit(self, surrogate, holdout, start)
+
+    monkeypatch.setattr(Measurement, "fit", failing)
+    result = diagnose(_step_record(), simulate=False)
+    assert "Excess work" in result.untestable["state_velocity_cutoff"]
+    forecast = [c for c in result.candidates if c.heldout_error is not None]
+    assert forecast and all(c.heldout_error == math.inf for c in forecast)
+    assert math.isfinite(result.base.heldout_error) and result.cause in ("none", "unexplained")
+
+
 def test_simulation_check_says_why_it_cannot_run() -> None:
     from nanoblock.diagnosis.simulation import simulation_check
 

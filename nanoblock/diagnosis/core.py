@@ -90,9 +90,11 @@ class Candidate:
         return float(np.sqrt(np.mean(pooled**2)))
 
     def ranking_entry(self) -> dict[str, Any]:
+        failed = self.heldout_error is not None and not math.isfinite(self.heldout_error)
         return {
             "id": self.id,
-            "heldout_error": self.heldout_error,
+            "heldout_error": None if failed else self.heldout_error,
+            **({"forecast_failed": True} if failed else {}),
             "information_criterion": self.information_criterion,
             "rms_residual": self.rms,
             "params": self.fit.params,
@@ -199,11 +201,25 @@ def _full_fit(measurement: Measurement, surrogate: Surrogate, start: dict | None
     return measurement.fit(surrogate, start=start)
 
 
+def _extension_fit(measurement: Measurement, surrogate: Surrogate, start: dict) -> Fit | str:
+    """:func:`_full_fit` of an extension, or why it failed (an integration its optimum
+    cannot finish): the extension is then reported as not testable, not as a crash."""
+    try:
+        return _full_fit(measurement, surrogate, start)
+    except (RuntimeError, FloatingPointError) as error:
+        return f"its fit failed ({error})"
+
+
 def _heldout_squares(
     measurement: Measurement, surrogate: Surrogate, start: dict, masks: Masks
 ) -> tuple[float, int]:
-    """Refit (warm-started) with one fold hidden: squared error on it, and its size."""
-    refit = measurement.fit(surrogate, holdout=masks, start=start)
+    """Refit (warm-started) with one fold hidden: squared error on it, and its size
+    (infinite if the refit fails: a model that cannot be integrated does not forecast)."""
+    held = sum(int(mask.sum()) for mask in masks)
+    try:
+        refit = measurement.fit(surrogate, holdout=masks, start=start)
+    except (RuntimeError, FloatingPointError):
+        return math.inf, held
     squared, count = 0.0, 0
     for model, y, held in zip(refit.model, measurement.observed, masks, strict=True):
         squared += float(np.sum((model[held] - y[held]) ** 2))
@@ -281,14 +297,18 @@ def _steady_stretches(measurement: Measurement, residuals: list[np.ndarray]) -> 
 
 def _fit_candidates(
     measurement: Measurement, models: dict[str, Surrogate], runner: _Runner
-) -> tuple[dict[str, Fit], _NoiseModel, dict[str, Candidate]]:
+) -> tuple[dict[str, Fit], _NoiseModel, dict[str, Candidate], dict[str, str]]:
     """Fit the base and every extension on all data (extensions warm-started from the
-    base), then measure the noise model and score each fit against it."""
+    base), then measure the noise model and score each fit against it; the extensions
+    whose fit failed are returned apart, with why."""
     base_fit = _full_fit(measurement, models["base"], None)
     runner.tick(1)
     names = [name for name in models if name != "base"]
     jobs = [(measurement, models[name], base_fit.start) for name in names]
-    fits = {"base": base_fit, **dict(zip(names, runner.map(_full_fit, jobs), strict=True))}
+    outcomes = dict(zip(names, runner.map(_extension_fit, jobs), strict=True))
+    failed = {name: why for name, why in outcomes.items() if isinstance(why, str)}
+    fits = {"base": base_fit}
+    fits.update({name: fit for name, fit in outcomes.items() if not isinstance(fit, str)})
     residuals = {
         name: [m - y for m, y in zip(fit.model, measurement.observed, strict=True)]
         for name, fit in fits.items()
@@ -310,7 +330,7 @@ def _fit_candidates(
             ),
             _implausible(measurement, name, fit),
         )
-    return fits, noise, candidates
+    return fits, noise, candidates, failed
 
 
 def _implausible(measurement: Measurement, name: str, fit: Fit) -> list[str]:
@@ -443,8 +463,9 @@ def diagnose(
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
-                fits, noise, scored = _fit_candidates(measurement, models, runner)
+                fits, noise, scored, failed = _fit_candidates(measurement, models, runner)
                 candidates = _score_heldout(measurement, models, fits, scored, runner)
+                untestable.update(failed)
         finally:
             runner.close()
     base = scored["base"]
