@@ -86,8 +86,19 @@ class RunData:
 
 def _history_from_displacement(time: FloatArray, displacement: FloatArray) -> LoadPointHistory:
     """Piecewise-constant V_L from a displacement record: finite differences, merged into
-    segments whose velocities agree within 20 % (holds: |V| below 1e-3 of the median)."""
-    velocity = np.diff(displacement) / np.diff(time)
+    segments whose velocities agree within 20 % (holds: |V| below 1e-3 of the median).
+    An interval shorter than 1e-9 of the record (repeated or near-repeated times) takes
+    its neighbour's velocity: its difference quotient is rounding error, and a segment
+    that short stops the integrator."""
+    step = np.diff(time)
+    tiny = step <= 1e-9 * (time[-1] - time[0])
+    velocity = np.diff(displacement) / np.where(tiny, 1.0, step)
+    if tiny.any() and not tiny.all():
+        good = np.flatnonzero(~tiny)
+        nearest = good[
+            np.clip(np.searchsorted(good, np.arange(step.size), side="right") - 1, 0, None)
+        ]
+        velocity = velocity[np.where(tiny, nearest, np.arange(step.size))]
     scale = np.median(np.abs(velocity)) or 1.0
     velocity = np.where(np.abs(velocity) < 1e-3 * scale, 0.0, np.maximum(velocity, 0.0))
     starts, values, begin = [time[0]], [], 0
