@@ -69,6 +69,8 @@ MAX_LAG1 = 0.99
 """Largest residual autocorrelation used to inflate standard errors."""
 _FIT_MAX_STEPS = 5_000
 """LSODA steps per output interval during fits: pathological trial parameters fail fast."""
+_CACHED_RUNS = 64
+"""Integrated runs a time-series fit remembers (see ``_time_series_setup``)."""
 
 
 @dataclass(frozen=True)
@@ -233,8 +235,9 @@ class FitResult:
 @dataclass(frozen=True)
 class _Problem:
     law: Law
-    forward: Callable[[Mapping[str, float], float], list[FloatArray]]
-    """Model of each run from all parameters, at an ODE relative tolerance."""
+    forward: Callable[..., list[FloatArray]]
+    """Model of each run from all parameters, at an ODE relative tolerance; with
+    ``active`` (one flag per run) a run flagged False may come back as NaN (not needed)."""
     observed: list[FloatArray]
     travel: float
     """Slip scale of the data [m]: memory lengths are searched within 1e-6 to 1e3 of it."""
@@ -246,6 +249,9 @@ class _Problem:
     log_scale: tuple[bool, ...]
     fitted: NDArray[np.bool_] | None = None
     """Which samples (all runs concatenated) the fit sees; the others are held out."""
+    active: tuple[bool, ...] | None = None
+    """Runs with a sample the fit sees (None: all): a wholly held-out run is not
+    integrated while fitting, only for the final model."""
 
     def unpack(self, x: Sequence[float]) -> dict[str, float]:
         values = {
@@ -273,7 +279,7 @@ class _Problem:
         optimiser backs off instead of stopping."""
         try:
             with np.errstate(all="ignore"):
-                models = self.models(self.unpack(x), rtol)
+                models = self.forward(self.unpack(x), rtol, self.active)
             residual = np.concatenate(
                 [(m - y) / self.scale for m, y in zip(models, self.observed, strict=True)]
             )
@@ -561,19 +567,42 @@ def _time_series_setup(
         free_names.append(LOAD_EXPONENT)
         params.setdefault(LOAD_EXPONENT, 0.0)
 
-    def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
-        out = []
-        for run, offset, scale in zip(prepared, offsets, scales, strict=True):
-            law_params = _law_params(lw, values, run.normal_force, w_ref)
-            start = None
-            if offset in values:  # ln theta_i(0) = ln theta_ss(V(0)) + offset
-                steady = lw.steady_state(run.history.velocities[0], lw.pack(law_params))
-                start = [float(s) + values[offset] for s in steady]
-            solution = solve_slider(
-                lw, law_params, run.history, run.time, values[STIFFNESS] * scale, rtol=rtol,
+    twins = _twins(prepared)
+    cache: dict[tuple, FloatArray] = {}
+
+    def friction(index: int, values: Mapping[str, float], rtol: float) -> FloatArray:
+        """Run ``index``'s slider friction, integrated once per distinct input: a run
+        with the time grid, history and parameters of an earlier one (runs at several
+        loads sampled alike) or a repeated evaluation (a finite-difference column of a
+        parameter it does not depend on, such as another run's initial state or the
+        trend) is looked up."""
+        run, offset = prepared[index], offsets[index]
+        law_params = _law_params(lw, values, run.normal_force, w_ref)
+        stiffness = values[STIFFNESS] * scales[index]
+        start = None
+        if offset in values:  # ln theta_i(0) = ln theta_ss(V(0)) + offset
+            steady = lw.steady_state(run.history.velocities[0], lw.pack(law_params))
+            start = tuple(float(s) + values[offset] for s in steady)
+        key = (twins[index], tuple(sorted(law_params.items())), stiffness, start, rtol)
+        if key not in cache:
+            if len(cache) >= _CACHED_RUNS:
+                del cache[next(iter(cache))]
+            cache[key] = solve_slider(
+                lw, law_params, run.history, run.time, stiffness, rtol=rtol,
                 initial_state=start, max_steps=_FIT_MAX_STEPS,
-            )  # fmt: skip
-            out.append(solution.friction + values.get(TREND, 0.0) * run.load_point_displacement)
+            ).friction  # fmt: skip
+        return cache[key]
+
+    def forward(
+        values: Mapping[str, float], rtol: float, active: Sequence[bool] | None = None
+    ) -> list[FloatArray]:
+        out = []
+        for index, run in enumerate(prepared):
+            if active is not None and not active[index]:
+                out.append(np.full(run.time.size, np.nan))
+                continue
+            trend = values.get(TREND, 0.0) * run.load_point_displacement
+            out.append(friction(index, values, rtol) + trend)
         return out
 
     travel = max(float(np.ptp(run.load_point_displacement)) for run in prepared)
@@ -582,6 +611,23 @@ def _time_series_setup(
         problem, params, v0, [r.load_point_displacement for r in prepared],
         "load-point displacement (m)", "friction coefficient",
     )  # fmt: skip
+
+
+def _twins(prepared: Sequence[RunData]) -> list[int]:
+    """For each run, the first run with the same time grid and load-point history (whose
+    integration it can share when the parameters agree too)."""
+    twins: list[int] = []
+    for run in prepared:
+        twins.append(
+            next(
+                j
+                for j, other in enumerate(prepared[: len(twins) + 1])
+                if np.array_equal(other.time, run.time)
+                and np.array_equal(other.history.starts, run.history.starts)
+                and np.array_equal(other.history.velocities, run.history.velocities)
+            )
+        )
+    return twins
 
 
 def _steady_setup(
@@ -603,7 +649,9 @@ def _steady_setup(
     held = {"dc", "d0"} | ({"a"} if lw.name in ("aging", "slip") else set())
     free_names = _free_names(lw, free, [n for n in lw.default_free if n not in held])
 
-    def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
+    def forward(
+        values: Mapping[str, float], rtol: float, active: object = None
+    ) -> list[FloatArray]:
         return [lw.steady_friction(velocity, lw.own(values))]
 
     problem = _problem(lw, forward, [mu], 1e-5, params, free_names)
@@ -665,7 +713,9 @@ def _clamped_setup(
         free_names.append(LOAD_EXPONENT)
         params.setdefault(LOAD_EXPONENT, 0.0)
 
-    def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
+    def forward(
+        values: Mapping[str, float], rtol: float, active: object = None
+    ) -> list[FloatArray]:
         return [
             solve_apparatus(
                 lw, _law_params(lw, values, force, w_ref), apparatus, force, protocol, time
@@ -781,7 +831,8 @@ def fit_rsf(
         fitted = ~np.concatenate([np.asarray(h, dtype=bool) for h in holdout])
         if fitted.size != sum(y.size for y in setup.problem.observed):
             raise ValueError("holdout needs one boolean array per run, one entry per sample")
-        setup = replace(setup, problem=replace(setup.problem, fitted=fitted))
+        active = tuple(not np.all(np.asarray(h, dtype=bool)) for h in holdout)
+        setup = replace(setup, problem=replace(setup.problem, fitted=fitted, active=active))
     if setup.problem.n_fitted <= len(setup.problem.free) + 2:
         raise DataError(
             f"{setup.problem.n_fitted} samples cannot constrain "
