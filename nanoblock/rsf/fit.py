@@ -235,9 +235,8 @@ class FitResult:
 @dataclass(frozen=True)
 class _Problem:
     law: Law
-    forward: Callable[..., list[FloatArray]]
-    """Model of each run from all parameters, at an ODE relative tolerance; with
-    ``active`` (one flag per run) a run flagged False may come back as NaN (not needed)."""
+    forward: Callable[[Mapping[str, float], float], list[FloatArray]]
+    """Model of each run from all parameters, at an ODE relative tolerance."""
     observed: list[FloatArray]
     travel: float
     """Slip scale of the data [m]: memory lengths are searched within 1e-6 to 1e3 of it."""
@@ -249,9 +248,6 @@ class _Problem:
     log_scale: tuple[bool, ...]
     fitted: NDArray[np.bool_] | None = None
     """Which samples (all runs concatenated) the fit sees; the others are held out."""
-    active: tuple[bool, ...] | None = None
-    """Runs with a sample the fit sees (None: all): a wholly held-out run is not
-    integrated while fitting, only for the final model."""
 
     def unpack(self, x: Sequence[float]) -> dict[str, float]:
         values = {
@@ -279,7 +275,7 @@ class _Problem:
         optimiser backs off instead of stopping."""
         try:
             with np.errstate(all="ignore"):
-                models = self.forward(self.unpack(x), rtol, self.active)
+                models = self.models(self.unpack(x), rtol)
             residual = np.concatenate(
                 [(m - y) / self.scale for m, y in zip(models, self.observed, strict=True)]
             )
@@ -593,14 +589,9 @@ def _time_series_setup(
             ).friction  # fmt: skip
         return cache[key]
 
-    def forward(
-        values: Mapping[str, float], rtol: float, active: Sequence[bool] | None = None
-    ) -> list[FloatArray]:
+    def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
         out = []
         for index, run in enumerate(prepared):
-            if active is not None and not active[index]:
-                out.append(np.full(run.time.size, np.nan))
-                continue
             trend = values.get(TREND, 0.0) * run.load_point_displacement
             out.append(friction(index, values, rtol) + trend)
         return out
@@ -649,9 +640,7 @@ def _steady_setup(
     held = {"dc", "d0"} | ({"a"} if lw.name in ("aging", "slip") else set())
     free_names = _free_names(lw, free, [n for n in lw.default_free if n not in held])
 
-    def forward(
-        values: Mapping[str, float], rtol: float, active: object = None
-    ) -> list[FloatArray]:
+    def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
         return [lw.steady_friction(velocity, lw.own(values))]
 
     problem = _problem(lw, forward, [mu], 1e-5, params, free_names)
@@ -713,9 +702,7 @@ def _clamped_setup(
         free_names.append(LOAD_EXPONENT)
         params.setdefault(LOAD_EXPONENT, 0.0)
 
-    def forward(
-        values: Mapping[str, float], rtol: float, active: object = None
-    ) -> list[FloatArray]:
+    def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
         return [
             solve_apparatus(
                 lw, _law_params(lw, values, force, w_ref), apparatus, force, protocol, time
@@ -831,8 +818,7 @@ def fit_rsf(
         fitted = ~np.concatenate([np.asarray(h, dtype=bool) for h in holdout])
         if fitted.size != sum(y.size for y in setup.problem.observed):
             raise ValueError("holdout needs one boolean array per run, one entry per sample")
-        active = tuple(not np.all(np.asarray(h, dtype=bool)) for h in holdout)
-        setup = replace(setup, problem=replace(setup.problem, fitted=fitted, active=active))
+        setup = replace(setup, problem=replace(setup.problem, fitted=fitted))
     if setup.problem.n_fitted <= len(setup.problem.free) + 2:
         raise DataError(
             f"{setup.problem.n_fitted} samples cannot constrain "
