@@ -125,6 +125,20 @@ def test_displacement_only_record_keeps_its_history_through_resampling() -> None
         np.testing.assert_allclose(run.history.velocities, velocities, atol=1e-15)
 
 
+def test_a_switch_located_on_a_sample_is_put_on_it() -> None:
+    """A velocity change located from the displacement within rounding of a sample starts
+    there: the resampled synthetic record (seed 8) had a segment 5.7e-14 s long before
+    the down-step's sample, an illegal input for LSODA at every trial point."""
+    from tests.diagnosis_synthetic import NOISE, time_series_case
+
+    data = resample_by_travel(
+        time_series_case("none", np.random.default_rng(8), NOISE["time_series"])
+    )
+    (run,) = prepare_runs(data)
+    assert np.all(np.isin(run.history.starts[1:], run.time))
+    assert fit_rsf(data, "aging").rms_residual < 2.0 * NOISE["time_series"]
+
+
 def test_resolution_noise_equals_white_noise_and_sees_coloured_noise() -> None:
     """On white noise the floor is sigma within 3 Monte Carlo errors (MAD efficiency 0.37:
     relative error 1.08 / sqrt(n)); on AR(1) noise (phi = 0.9) it exceeds the sample-scale
