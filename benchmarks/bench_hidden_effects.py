@@ -6,7 +6,8 @@ Run: ``python benchmarks/bench_hidden_effects.py [PER_EFFECT [NONE_PER_KIND [KIN
 (8, 8 and every kind by default). Writes ``benchmarks/results_hidden_effects.json`` (with
 KINDs: ``results_hidden_effects_<KIND>...json``) after every case, ``complete`` false
 until the matrix is done (a stopped run still leaves a stratified prefix), and prints the
-markdown confusion matrix.
+markdown confusion matrix. A case that raises is recorded with verdict ``error: ...`` (a
+wrong answer) instead of stopping the matrix.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import platform
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -53,9 +55,15 @@ def main() -> None:
     }
     results = []
     with ProcessPoolExecutor(2) as pool:
-        futures = [pool.submit(run_case, case) for case in matrix]
+        futures = {pool.submit(run_case, case): case for case in matrix}
         for future in as_completed(futures):
-            result = future.result()
+            try:
+                result = future.result()
+            except Exception as error:  # recorded as a wrong answer: the matrix goes on
+                case = futures[future]
+                result = {**asdict(case), "expected": "?", "chi2": None,
+                          "verdict": f"error: {type(error).__name__}: {error}"[:300],
+                          "cpu_seconds": float("nan")}  # fmt: skip
             results.append(result)
             print(
                 f"{result['kind']:15s} {result['effect']:22s} #{result['index']} expected "

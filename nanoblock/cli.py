@@ -466,6 +466,13 @@ def fit(
     rows: Annotated[str | None, ROWS] = None,
     mcmc: Annotated[bool, typer.Option(help="sample the posterior with emcee")] = False,
     mcmc_steps: Annotated[int, typer.Option(min=10, help="MCMC steps per walker")] = 2000,
+    per_step: Annotated[
+        bool,
+        typer.Option(
+            help="also fit every step (window or run) on its own and test per-step against "
+            "shared parameters (report section, fit.json 'per_step')"
+        ),
+    ] = False,
 ) -> None:
     """Fit a rate-and-state law to velocity steps or slide-hold-slide data.
 
@@ -493,7 +500,18 @@ def fit(
         )
         if "dc" in result.free:
             check_state_evolves(measurement, result.contract["dc"], result.contract_stderr["dc"])
-    written = write_fit(result, measurement, out)
+        steps = None
+        if per_step:
+            from nanoblock.rsf.steps import compare_steps
+
+            steps = compare_steps(
+                measurement, law, stiffness=stiffness, trend=trend,
+                fit_stiffness=fit_stiffness, initial_state=initial_state,
+            )  # fmt: skip
+    written = write_fit(result, measurement, out, steps)
+    if steps is not None:
+        verdict = "differ" if steps.differ else "agree"
+        typer.echo(f"per-step parameters {verdict}: Delta IC {steps.delta:.1f}")
     for key in ("mu0", "a", "b", "dc"):
         value, error = result.contract[key], result.contract_stderr[key]
         typer.echo(f"{key:<6}{value:>12.5g}  +- {error if error is not None else 0:.2g}")

@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 import pytest
+import xarray as xr
 from scipy.stats import binom
 
 from nanoblock.measured import DataError, load_measurement
@@ -19,7 +20,9 @@ from nanoblock.rsf.apparatus import FIG3_PROTOCOL, SURFACES
 from nanoblock.rsf.fit import COHESION, LOAD_EXPONENT, STIFFNESS, TREND, fit_rsf
 from nanoblock.rsf.laws import law
 from nanoblock.rsf.report import write_fit
+from nanoblock.rsf.steps import compare_steps, step_text
 from tests.diagnosis_synthetic import SILICON_APPARATUS, naive_clamped
+from tests.naive_rsf import naive_slider
 from tests.rsf_synthetic import NOISE, combine, random_parameters, record
 from tests.tolerances import (
     POWER,
@@ -288,3 +291,64 @@ def test_degenerate_data_is_refused_not_fitted(change: str, message: str) -> Non
         data["load_point_velocity"] = ("sample", np.full(data.sizes["sample"], 1e-6))
     with pytest.raises(DataError, match=message):
         fit_rsf(data, "aging", stiffness=2500.0)
+
+
+def _steps_record(dc_factors: tuple[float, ...], seed: int) -> xr.Dataset:
+    """Velocity steps up and down (one run each, 20 D_c of travel before, 60 after), made
+    by the independent reference integrator with white noise 2e-4; run i has D_c times
+    ``dc_factors[i]``."""
+    rng = np.random.default_rng(seed)
+    base = {"mu0": 0.6, "a": 0.01, "b": 0.014, "dc": 2e-5, "v0": 1e-6}
+    stiffness = 2.0 * _stable_stiffness({**base, "dc": base["dc"] * min(dc_factors)})
+    columns: dict[str, list[np.ndarray]] = {}
+    for run, factor in enumerate(dc_factors):
+        v1, v2 = (1e-6, 1e-5) if run % 2 == 0 else (1e-5, 1e-6)
+        segments = [(v1, 20 * base["dc"] / v1), (v2, 60 * base["dc"] / v2)]
+        ends = np.cumsum([d for _, d in segments])
+        time = np.concatenate([np.linspace(0.0, ends[0], 150, endpoint=False),
+                               np.linspace(ends[0], ends[1], 450)])  # fmt: skip
+        params = {**base, "dc": base["dc"] * factor}
+        mu = naive_slider("aging", params, segments, time, stiffness)
+        for name, values in (
+            ("time", time), ("mu", mu + 2e-4 * rng.standard_normal(time.size)),
+            ("load_point_velocity", np.where(time < ends[0], v1, v2)),
+            ("load_point_displacement", v1 * np.minimum(time, ends[0])
+             + v2 * np.maximum(time - ends[0], 0.0)),
+            ("run", np.full(time.size, run)),
+        ):  # fmt: skip
+            columns.setdefault(name, []).append(values)
+    return xr.Dataset(
+        {k: ("sample", np.concatenate(v)) for k, v in columns.items()},
+        attrs={"kind": "time_series", "stiffness_per_load": stiffness},
+    )
+
+
+def test_per_step_parameters_are_flagged_only_when_the_steps_differ() -> None:
+    """Shared a, b, D_c across three steps: per-step parameters do not pass the
+    information criterion (level: twice the log-likelihood ratio is chi^2 with 8 extra
+    degrees of freedom, the threshold 8 ln n_eff + 10 ~ 60 at 1800 samples, p < 1e-9).
+    D_c doubled in the middle step: flagged (power), and its ln D_c values disagree
+    beyond their errors while a and b need not."""
+    same = compare_steps(_steps_record((1.0, 1.0, 1.0), seed=1))
+    assert not same.differ, same.to_json()
+    changed = compare_steps(_steps_record((1.0, 2.0, 1.0), seed=2))
+    assert changed.differ, changed.to_json()
+    assert changed.consistency["dc"]["p_value"] < 1e-3, changed.consistency
+    report = step_text(changed)
+    assert "**differ**" in report and "| shared |" in report
+
+
+def test_fit_command_reports_per_step_parameters(tmp_path) -> None:
+    """``nanoblock fit --per-step``: the comparison in report.md and fit.json."""
+    from typer.testing import CliRunner
+
+    from nanoblock.cli import app
+
+    path = tmp_path / "steps.nc"
+    _steps_record((1.0, 2.0), seed=3).to_netcdf(path)
+    out = tmp_path / "fit"
+    result = CliRunner().invoke(app, ["fit", str(path), "--out", str(out), "--per-step"])
+    assert result.exit_code == 0, result.output
+    assert "per-step parameters differ" in result.output
+    assert json.loads((out / "fit.json").read_text())["per_step"]["differ"] is True
+    assert "## Per-step against shared parameters" in (out / "report.md").read_text()

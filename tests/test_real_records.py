@@ -23,6 +23,7 @@ from nanoblock.diagnosis.statistics import effective_size, noise_level, resoluti
 from nanoblock.diagnosis.surrogates import forecast_mask
 from nanoblock.measured import load_measurement
 from nanoblock.rsf.fit import fit_rsf, prepare_runs
+from nanoblock.rsf.slider import LoadPointHistory
 from nanoblock.rsf.windows import step_windows
 
 SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -99,6 +100,43 @@ def test_resampling_averages_bins_of_equal_travel_within_segments() -> None:
     assert set(np.unique(binned["load_point_velocity"].values)) == {1e-6, 1e-5}
     coarse = data.isel(sample=slice(None, None, 20))
     assert resample_by_travel(coarse).sizes["sample"] == coarse.sizes["sample"]
+
+
+def test_displacement_only_record_keeps_its_history_through_resampling() -> None:
+    """Without a velocity column the history comes from the displacement: a repeated time
+    stamp (1e-13 s apart, displacement read to 1 pm) makes no segment of its own, and the
+    resampled record carries the velocities of that history, so bin means either side of a
+    change cannot add a segment at their secant velocity."""
+    dense = [start + np.geomspace(1e-4, 1.0, 200) for start in (100.0, 150.0)]
+    time = np.unique(np.concatenate([np.linspace(0.0, 200.0, 20001), [3.0 + 1e-13], *dense]))
+    starts, velocities = np.array([0.0, 100.0, 150.0]), np.array([1e-6, 0.0, 1e-6])
+    travel = np.round(LoadPointHistory(starts, velocities).displacement_at(time), 12)
+    data = xr.Dataset(
+        {"time": ("sample", time), "mu": ("sample", 0.6 + 0.0 * time),
+         "load_point_displacement": ("sample", travel)},
+        attrs={"kind": "time_series"},
+    )  # fmt: skip
+    binned = resample_by_travel(data)
+    moving = (binned["time"].values < 100.0) | (binned["time"].values >= 150.0)
+    np.testing.assert_allclose(binned["load_point_velocity"].values, np.where(moving, 1e-6, 0.0))
+    for record in (data, binned):
+        (run,) = prepare_runs(record)
+        np.testing.assert_allclose(run.history.starts[1:], starts[1:], atol=1e-9)
+        np.testing.assert_allclose(run.history.velocities, velocities, atol=1e-15)
+
+
+def test_a_switch_located_on_a_sample_is_put_on_it() -> None:
+    """A velocity change located from the displacement within rounding of a sample starts
+    there: the resampled synthetic record (seed 8) had a segment 5.7e-14 s long before
+    the down-step's sample, an illegal input for LSODA at every trial point."""
+    from tests.diagnosis_synthetic import NOISE, time_series_case
+
+    data = resample_by_travel(
+        time_series_case("none", np.random.default_rng(8), NOISE["time_series"])
+    )
+    (run,) = prepare_runs(data)
+    assert np.all(np.isin(run.history.starts[1:], run.time))
+    assert fit_rsf(data, "aging").rms_residual < 2.0 * NOISE["time_series"]
 
 
 def test_resolution_noise_equals_white_noise_and_sees_coloured_noise() -> None:

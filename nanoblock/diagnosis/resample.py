@@ -8,7 +8,10 @@ never across a change of load-point velocity: progress is the load-point travel,
 during a hold the time multiplied by the velocity before it. A bin holding several
 samples becomes their mean (time, friction and every other column); a sparsely sampled
 stretch keeps its samples as they are. Records sampled more coarsely than the bins pass
-through unchanged.
+through unchanged. A record without a ``load_point_velocity`` column gets one from the
+history its displacement gives: the bin means on either side of a change of velocity
+would otherwise read as a spurious segment at the secant velocity between them (a slow
+reload lasting half a bin of the hold before the real one).
 """
 
 from __future__ import annotations
@@ -55,6 +58,9 @@ def resample_by_travel(data: xr.Dataset) -> xr.Dataset:
     pieces = []
     for part, prepared in zip(runs(data), prepare_runs(data), strict=True):
         index = _bin_index(prepared.time, prepared.history)
+        if "load_point_velocity" not in part:  # keep the history the bins were cut by
+            velocity = prepared.history.velocity_at(prepared.time)
+            part = part.assign(load_point_velocity=("sample", velocity, {"units": "m/s"}))
         _, first, inverse, counts = np.unique(
             index, return_index=True, return_inverse=True, return_counts=True
         )

@@ -4,8 +4,9 @@ Laboratory fits take a window after each step (xlook's ``qi``: a few hundred mic
 single state variable fitted to a record with a second, longer evolution length finds a
 D_c that grows with the window: the fit trades the contact-scale decay against the slow
 tail. This module refits the base aging law with the window after each step at
-``FRACTIONS`` of the shortest post-step travel (all the travel before the step kept) and
-reports D_c per window, the signature of ``two_state_variable``.
+``FRACTIONS`` of the shortest travel after a change to a moving load point (a hold has
+none), all the travel before the step kept, and reports D_c per window, the signature of
+``two_state_variable``.
 """
 
 from __future__ import annotations
@@ -31,6 +32,8 @@ def window_study(data: xr.Dataset) -> dict[str, Any]:
     for run in prepare_runs(data):
         starts = run.history.starts
         for k, start in enumerate(starts[1:], start=1):
+            if run.history.velocities[k] <= 0.0:  # a hold: no travel after it
+                continue
             end = starts[k + 1] if k + 1 < starts.size else run.time[-1]
             after = min(
                 after, float(run.history.displacement_at(end) - run.history.displacement_at(start))

@@ -73,6 +73,8 @@ MAX_LAG1 = 0.99
 """Largest residual autocorrelation used to inflate standard errors."""
 _FIT_MAX_STEPS = 5_000
 """LSODA steps per output interval during fits: pathological trial parameters fail fast."""
+_CACHED_RUNS = 64
+"""Integrated runs a time-series fit remembers (see ``_time_series_setup``)."""
 
 
 @dataclass(frozen=True)
@@ -90,8 +92,19 @@ class RunData:
 
 def _history_from_displacement(time: FloatArray, displacement: FloatArray) -> LoadPointHistory:
     """Piecewise-constant V_L from a displacement record: finite differences, merged into
-    segments whose velocities agree within 20 % (holds: |V| below 1e-3 of the median)."""
-    velocity = np.diff(displacement) / np.diff(time)
+    segments whose velocities agree within 20 % (holds: |V| below 1e-3 of the median).
+    An interval shorter than 1e-9 of the record (repeated or near-repeated times) takes
+    its neighbour's velocity: its difference quotient is rounding error, and a segment
+    that short stops the integrator."""
+    step = np.diff(time)
+    tiny = step <= 1e-9 * (time[-1] - time[0])
+    velocity = np.diff(displacement) / np.where(tiny, 1.0, step)
+    if tiny.any() and not tiny.all():
+        good = np.flatnonzero(~tiny)
+        nearest = good[
+            np.clip(np.searchsorted(good, np.arange(step.size), side="right") - 1, 0, None)
+        ]
+        velocity = velocity[np.where(tiny, nearest, np.arange(step.size))]
     scale = np.median(np.abs(velocity)) or 1.0
     velocity = np.where(np.abs(velocity) < 1e-3 * scale, 0.0, np.maximum(velocity, 0.0))
     starts, values, begin = [time[0]], [], 0
@@ -566,20 +579,38 @@ def _time_series_setup(
         free_names.append(COHESION)
         params.setdefault(COHESION, 0.0)
 
+    twins = _twins(prepared)
+    cache: dict[tuple, FloatArray] = {}
+
+    def friction(index: int, values: Mapping[str, float], rtol: float) -> FloatArray:
+        """Run ``index``'s slider friction, integrated once per distinct input: a run
+        with the time grid, history and parameters of an earlier one (runs at several
+        loads sampled alike) or a repeated evaluation (a finite-difference column of a
+        parameter it does not depend on, such as another run's initial state or the
+        trend) is looked up."""
+        run, offset = prepared[index], offsets[index]
+        law_params = _law_params(lw, values, run.normal_force, w_ref)
+        stiffness = values[STIFFNESS] * scales[index]
+        start = None
+        if offset in values:  # ln theta_i(0) = ln theta_ss(V(0)) + offset
+            steady = lw.steady_state(run.history.velocities[0], lw.pack(law_params))
+            start = tuple(float(s) + values[offset] for s in steady)
+        key = (twins[index], tuple(sorted(law_params.items())), stiffness, start, rtol)
+        if key not in cache:
+            if len(cache) >= _CACHED_RUNS:
+                del cache[next(iter(cache))]
+            cache[key] = solve_slider(
+                lw, law_params, run.history, run.time, stiffness, rtol=rtol,
+                initial_state=start, max_steps=_FIT_MAX_STEPS,
+            ).friction  # fmt: skip
+        return cache[key]
+
     def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
         out = []
-        for run, offset, scale, level in zip(prepared, offsets, scales, levels, strict=True):
-            law_params = _law_params(lw, values, run.normal_force, w_ref)
-            start = None
-            if offset in values:  # ln theta_i(0) = ln theta_ss(V(0)) + offset
-                steady = lw.steady_state(run.history.velocities[0], lw.pack(law_params))
-                start = [float(s) + values[offset] for s in steady]
-            solution = solve_slider(
-                lw, law_params, run.history, run.time, values[STIFFNESS] * scale, rtol=rtol,
-                initial_state=start, max_steps=_FIT_MAX_STEPS,
-            )  # fmt: skip
+        for index, run in enumerate(prepared):
             trend = values.get(TREND, 0.0) * run.load_point_displacement
-            out.append(solution.friction + trend + values.get(COHESION, 0.0) * level)
+            level = values.get(COHESION, 0.0) * levels[index]
+            out.append(friction(index, values, rtol) + trend + level)
         return out
 
     travel = max(float(np.ptp(run.load_point_displacement)) for run in prepared)
@@ -588,6 +619,23 @@ def _time_series_setup(
         problem, params, v0, [r.load_point_displacement for r in prepared],
         "load-point displacement (m)", "friction coefficient",
     )  # fmt: skip
+
+
+def _twins(prepared: Sequence[RunData]) -> list[int]:
+    """For each run, the first run with the same time grid and load-point history (whose
+    integration it can share when the parameters agree too)."""
+    twins: list[int] = []
+    for run in prepared:
+        twins.append(
+            next(
+                j
+                for j, other in enumerate(prepared[: len(twins) + 1])
+                if np.array_equal(other.time, run.time)
+                and np.array_equal(other.history.starts, run.history.starts)
+                and np.array_equal(other.history.velocities, run.history.velocities)
+            )
+        )
+    return twins
 
 
 def _steady_setup(

@@ -3,6 +3,7 @@ data, fitted model and residuals."""
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -11,6 +12,7 @@ import xarray as xr
 
 from nanoblock.rsf.fit import STIFFNESS, TREND, FitResult
 from nanoblock.rsf.laws import law
+from nanoblock.rsf.steps import StepComparison, step_text
 
 __all__ = ["plot_fit", "residual_summary", "write_fit"]
 
@@ -115,11 +117,21 @@ def _report(result: FitResult, data: xr.Dataset, figure: str) -> str:
     return "\n".join(lines)
 
 
-def write_fit(result: FitResult, data: xr.Dataset, out: str | Path) -> dict[str, Path]:
-    """Write ``fit.json``, ``report.md`` and ``fit.png`` into directory ``out``."""
+def write_fit(
+    result: FitResult, data: xr.Dataset, out: str | Path, steps: StepComparison | None = None
+) -> dict[str, Path]:
+    """Write ``fit.json``, ``report.md`` and ``fit.png`` into directory ``out``; with
+    ``steps`` (:func:`~nanoblock.rsf.steps.compare_steps`) the per-step comparison goes
+    into the report and under ``per_step`` in ``fit.json``."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     figure = plot_fit(result, data, out / "fit.png")
     report = out / "report.md"
-    report.write_text(_report(result, data, figure.name))
-    return {"json": result.write_json(out / "fit.json"), "report": report, "figure": figure}
+    text = _report(result, data, figure.name)
+    written = result.write_json(out / "fit.json")
+    if steps is not None:
+        text += "\n" + step_text(steps)
+        summary = json.loads(written.read_text())
+        written.write_text(json.dumps({**summary, "per_step": steps.to_json()}, indent=2) + "\n")
+    report.write_text(text)
+    return {"json": written, "report": report, "figure": figure}

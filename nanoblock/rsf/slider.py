@@ -96,6 +96,11 @@ class LoadPointHistory:
             v1, v2 = velocity[change - 1], velocity[change]
             located = (x[change] - x[change - 1] - v2 * after + v1 * before) / (v1 - v2)
             switch = np.where(np.isfinite(located), np.clip(located, before, after), switch)
+            # a switch on a sample, up to rounding, is put on it: a segment 1e-14 s long
+            # before the sample is an illegal input for LSODA
+            near = 1e-9 * (after - before)
+            switch = np.where(after - switch < near, after, switch)
+            switch = np.where(switch - before < near, before, switch)
         starts = np.concatenate([[time[0]], switch])
         return cls(starts, np.concatenate([[velocity[0]], velocity[change]]))
 
