@@ -256,3 +256,13 @@ def test_figures_script_makes_the_quickstart_figure(tmp_path) -> None:
     numbers = json.loads((tmp_path / "quickstart.json").read_text())
     assert numbers["n_contacts"] == REDUCED_CONTACTS
     assert numbers["mu_ss_1um_s"] > numbers["mu_ss_10um_s"]  # velocity weakening
+
+
+def test_readme_laboratory_verdicts_are_those_the_benchmark_wrote() -> None:
+    """Every verdict in the README's laboratory table is the one
+    ``benchmarks/bench_diagnosis.py`` wrote to results_diagnosis.json, in its order."""
+    results = json.loads((ROOT / "benchmarks" / "results_diagnosis.json").read_text())
+    expected = [v["cause"] for k, v in results["results"].items() if k != "synthetic_5000"]
+    section = README.read_text().split("## On laboratory records")[1].split("\n## ")[0]
+    shown = re.findall(r"^\| [^|]+ \| `([a-z_]+)` \|", section, flags=re.MULTILINE)
+    assert shown == expected
