@@ -32,6 +32,17 @@ of a 1 -> 10 um/s spike at K/W = 1e8 1/m 12-18 % high (+5 % at rho~_max / 8, -1 
 K = inf is the rigid drive: no drift, no jump, ``step_slip`` bounds the slider's own slip
 (unlimited by default).
 
+Runaway slips. When a soft spring's force exceeds what the interface can resist at any
+speed (the saturated friction above V*, 001/Fig. 15: the slip phase of stick-slip), the
+quasi-static slider has no finite velocity: each step's jump raises the predicted drift
+by the factor 1 + jump / step_slip and the steps shrink until time stops advancing. The
+drift is capped at ``_ATHERMAL`` omega_a rho~_max, where a block crosses its whole pinned
+range in a tenth of an attempt period: a block escapes thermally before its threshold
+with probability about 1 / (2 u _ATHERMAL) (1e-3 of the blocks at u = 50), so the slide is
+athermal and rate-independent and the cap changes only the slip's duration (rho~_max /
+(80 omega_a) per step). The excess force is then shed by the elastic jumps, each firing the
+blocks it carries over their threshold, as in :func:`settle`.
+
 ``slider`` is a one-element record array of :data:`nanoblock.kernels.layout.SLIDER`;
 ``strength`` and ``tables`` the strength classes of :mod:`.layout`; ``protocol`` is
 ``(3, S + 1)``: segment start times (last column: end of protocol), load-point
@@ -58,6 +69,9 @@ _WINDOW = 0.125
 _MAX_WEIGHT = 0.125
 """Largest weight of one step in the smoothed drift: step sizes must not follow the last
 step's noise."""
+
+_ATHERMAL = 10.0
+"""The drift is capped at this many omega_a rho~_max (see :func:`advance_to`)."""
 
 _DROP = 2.0
 """Force drop of one depinning in units of the mean block force F / n_blocks (a mean-field
@@ -134,6 +148,7 @@ def advance_to(
     spring = params.stiffness
     blocks = state[0].size
     window = max(1.0, blocks * _WINDOW)
+    athermal = _ATHERMAL * params.omega_a * np.max(strength[:, 1])
     while s.time < t_stop:
         _, load_velocity, segment_end = load_point(s.time, protocol)
         following = following_velocity(load_velocity, s.stiffness, spring)
@@ -162,7 +177,11 @@ def advance_to(
         s.pending = _balance_jump(moved, s.load_point, s.force, s.stiffness, params)
         s.position = moved + s.pending
         if spring != np.inf:
-            s.drift += s.pending / dt
+            # the drift predicted from the last jump grows without bound in a runaway
+            # slip (spring force above the saturated friction, 001/Fig. 15), and the steps
+            # with it shrink until time stops; beyond the athermal speed the slide is
+            # rate-independent, so capping it changes only the slip's (tiny) duration
+            s.drift = min(max(s.drift + s.pending / dt, -athermal), athermal)
             count = np.sum(events) - before
             weight = min(_MAX_WEIGHT, (count + 1.0) / window)
             drop = _DROP * s.force / (blocks * (spring + s.stiffness))
