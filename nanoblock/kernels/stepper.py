@@ -177,10 +177,7 @@ def advance_to(
         s.pending = _balance_jump(moved, s.load_point, s.force, s.stiffness, params)
         s.position = moved + s.pending
         if spring != np.inf:
-            # the drift predicted from the last jump grows without bound in a runaway
-            # slip (spring force above the saturated friction, 001/Fig. 15), and the steps
-            # with it shrink until time stops; beyond the athermal speed the slide is
-            # rate-independent, so capping it changes only the slip's (tiny) duration
+            # capped: a runaway slip (module docstring) would stop time
             s.drift = min(max(s.drift + s.pending / dt, -athermal), athermal)
             count = np.sum(events) - before
             weight = min(_MAX_WEIGHT, (count + 1.0) / window)
