@@ -266,6 +266,8 @@ class Run:
         self.times = sample_times(scenario)
         self.state = initial_state(scenario, self.params, self.strength)
         self.scratch = np.zeros((2, scenario.interface.n_contacts))
+        chains = scenario.interface.blocks_per_contact > 1 and self.params[0]["kappa"] != 0.0
+        self.coupled = True if chains else None  # None: the chain kernel is never compiled
         self.next_sample = 0
         self.snapshots_taken = 0
         self.last_position = float(self.state.slider[0]["position"])
@@ -274,11 +276,10 @@ class Run:
         s = self.state
         return (s.y, s.h, s.age, s.slip, s.lifetime)
 
-    def step_to_next_sample(self) -> dict[str, float]:
-        """Advance to the next sample time, balance the slider, and return the sample."""
-        t = self.times[self.next_sample]
+    def kernel_arguments(self, t: float) -> tuple[Any, ...]:
+        """The arguments of :func:`~nanoblock.kernels.stepper.advance_to_sample` to ``t`` [s]."""
         s = self.state
-        advance_to_sample(
+        return (
             t,
             s.slider,
             self._kernel_state(),
@@ -288,8 +289,15 @@ class Run:
             self.params,
             self.strength,
             self.tables,
+            self.coupled,
             self.protocol,
         )
+
+    def step_to_next_sample(self) -> dict[str, float]:
+        """Advance to the next sample time, balance the slider, and return the sample."""
+        s = self.state
+        t = self.times[self.next_sample]
+        advance_to_sample(*self.kernel_arguments(t))
         slider = s.slider[0]
         interval = self.scenario.run.record_every
         position = float(slider["position"])
@@ -439,9 +447,9 @@ def simulate(
     """
     scenario = resolve_seed(scenario, seed)
     check_feasible(scenario)
-    if progress and not cached(advance_to_sample):
-        print(COMPILING.format(minutes=COMPILE_MINUTES), file=sys.stderr, flush=True)
     run = Run(scenario)
+    if progress and not cached(advance_to_sample, run.kernel_arguments(0.0)):
+        print(COMPILING.format(minutes=COMPILE_MINUTES), file=sys.stderr, flush=True)
     writer = RunStore(store) if store is not None else None
     interval = FLUSH_SECONDS if flush_seconds is None else flush_seconds
     previous = None

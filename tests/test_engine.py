@@ -298,16 +298,19 @@ def test_rigid_spring_steps_run_to_each_sample_through_velocity_steps_and_holds(
 
 def test_cached_tells_a_cold_kernel_from_a_compiled_one(tmp_path, monkeypatch) -> None:
     """The compile notice's check reads Numba's cache index: False before the first call
-    of a fresh cached kernel, True once it has compiled into the cache."""
+    of a fresh cached kernel, True once it has compiled into the cache for those argument
+    types, and still False for types it has not compiled (a chain run after a mean-field
+    one compiles the chain kernel)."""
     (tmp_path / "fresh_kernel.py").write_text(
         "from nanoblock.kernels._jit import kernel\n\n\n"
         "@kernel\ndef twice(x: float) -> float:\n    return 2.0 * x\n"
     )
     monkeypatch.syspath_prepend(str(tmp_path))
     module = importlib.import_module("fresh_kernel")
-    assert not cached(module.twice)
+    assert not cached(module.twice, (1.5,))
     assert module.twice(1.5) == 3.0
-    assert cached(module.twice)
+    assert cached(module.twice, (2.5,))
+    assert not cached(module.twice, (2,))
 
 
 def test_progress_says_when_kernels_compile(capsys, monkeypatch) -> None:
@@ -315,7 +318,7 @@ def test_progress_says_when_kernels_compile(capsys, monkeypatch) -> None:
     simulate(run)  # compiles into the cache if this is the first run
     simulate(run, progress=True)
     assert "compiling kernels" not in capsys.readouterr().err
-    monkeypatch.setattr(engine, "cached", lambda dispatcher: False)
+    monkeypatch.setattr(engine, "cached", lambda dispatcher, arguments: False)
     simulate(run, progress=True)
     assert "compiling kernels (once after install)" in capsys.readouterr().err
     simulate(run)

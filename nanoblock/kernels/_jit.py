@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, TypeVar
 
-from numba import njit
+from numba import njit, typeof
 from numba.core.dispatcher import Dispatcher
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -40,11 +40,13 @@ def kernel(
     return wrap if function is None else wrap(function)
 
 
-def cached(dispatcher: Dispatcher) -> bool:
-    """Whether ``dispatcher`` has machine code in Numba's cache for its current source, so
-    that its first call loads rather than compiles (reads the cache index only; any
-    failure to read it counts as not cached)."""
+def cached(dispatcher: Dispatcher, arguments: tuple[Any, ...]) -> bool:
+    """Whether ``dispatcher`` has machine code in Numba's cache for its current source and
+    the types of ``arguments``, so that a call with them loads rather than compiles (reads
+    the cache index only; any failure to read it counts as not cached)."""
     try:
-        return bool(dispatcher._cache._cache_file._load_index())
+        signature = tuple(typeof(argument) for argument in arguments)
+        index = dispatcher._cache._cache_file._load_index()
+        return any(key[0] == signature for key in index)
     except Exception:  # a private Numba API: whatever fails to read counts as cold
         return False

@@ -634,7 +634,8 @@ def integrate_cluster(
     """
     n = z.shape[0]
     n_moving, n_moved = _start_cluster(first, z, offset, kappa, on_depin, moved, modal, blocks)
-    events, n_stopped, substeps, landed = 1, 0, 0, False
+    # typed counters: literal 0 and 1 would compile _segment a second time for the first call
+    events, n_stopped, substeps, landed = np.int64(1), np.int64(0), np.int64(0), False
     while (n_moving > 0 or n_stopped > 0) and substeps < _MAX_SUBSTEPS and not landed:
         n_runs, longest = _runs(blocks, n_moving)
         if longest > vectors.shape[1]:

@@ -48,22 +48,14 @@ def renew_contact(y_row, h_row, stream, memory: float) -> float:
 
 
 @kernel(nrt=False)
-def _advance_blocks(y_row, h_row, jump, x_rate, duration, params, table, stream) -> int:
-    if params.kappa == 0.0 or y_row.shape[0] == 1:
-        eta = params.eta_free if params.slip_chain == 1 else 0.0
-        return advance_free_blocks(
-            y_row,
-            h_row,
-            jump,
-            x_rate,
-            duration,
-            eta,
-            params.omega_a,
-            table,
-            stream,
-            params.hop_period,
-        )
-    return advance_chain(y_row, h_row, jump, x_rate, duration, params, table, stream)
+def _advance_blocks(y_row, h_row, jump, x_rate, duration, params, table, stream, coupled) -> int:
+    # ``coupled is None`` is pruned at compile time: the chain kernel is then not compiled
+    if coupled is not None and params.kappa != 0.0 and y_row.shape[0] > 1:
+        return advance_chain(y_row, h_row, jump, x_rate, duration, params, table, stream)
+    eta = params.eta_free if params.slip_chain == 1 else 0.0
+    return advance_free_blocks(
+        y_row, h_row, jump, x_rate, duration, eta, params.omega_a, table, stream, params.hop_period
+    )
 
 
 @kernel
@@ -90,11 +82,14 @@ def advance_contact(
     params,
     strength,
     tables,
+    coupled,
 ) -> None:
     """Advance contact c: slider jump ``jump`` [m], then ``duration`` [s] at ``velocity``.
 
     The contact dies when its slip since birth reaches its lifetime, at the exact instant
-    on the slider path, and the fresh contact takes the rest of the segment.
+    on the slider path, and the fresh contact takes the rest of the segment. ``coupled``:
+    None when every contact's blocks are independent (k2 = 0 or one block per contact),
+    True to run coupled chains through :func:`~.chain.advance_chain`.
     """
     k = c % strength.shape[0]
     rho = strength[k, 1]
@@ -113,7 +108,7 @@ def advance_contact(
         dies = until_death <= remaining
         span = until_death if dies else remaining
         events[c] += _advance_blocks(
-            y[c], h[c], pending / rho, velocity / rho, span, params, table, streams[c]
+            y[c], h[c], pending / rho, velocity / rho, span, params, table, streams[c], coupled
         )
         slip[c] += pending + velocity * span
         age[c] += clock * span
@@ -143,13 +138,14 @@ def advance_contacts(
     param_array,
     strength,
     tables,
+    coupled,
 ) -> None:
     """Advance every contact (in parallel; each has its own stream) and store its force
     ``force[c]`` [N] and elastic stiffness ``stiffness[c]`` = dF_c / dX [N/m].
 
     ``param_array`` is the one-element PARAMS array (records cannot enter a parallel loop
     by value); ``strength`` and ``tables`` hold each strength class's (sigma_a, rho~_max)
-    and hazard table."""
+    and hazard table; ``coupled`` as in :func:`advance_contact`."""
     for c in prange(y.shape[0]):
         params = param_array[0]
         advance_contact(
@@ -167,6 +163,7 @@ def advance_contacts(
             params,
             strength,
             tables,
+            coupled,
         )
         area = contact_area(age[c], params)
         sigma_a, rho_max = strength[c % strength.shape[0]]

@@ -106,7 +106,17 @@ def _balance_jump(position: float, load: float, force: float, k_int: float, para
 
 @kernel
 def _advance_interface(
-    slider, state, streams, events, scratch, param_array, strength, tables, velocity, duration
+    slider,
+    state,
+    streams,
+    events,
+    scratch,
+    param_array,
+    strength,
+    tables,
+    coupled,
+    velocity,
+    duration,
 ) -> None:
     """Apply the pending jump, slide ``duration`` at ``velocity``, sum forces into the slider."""
     y, h, age, slip, lifetime = state
@@ -128,6 +138,7 @@ def _advance_interface(
         param_array,
         strength,
         tables,
+        coupled,
     )
     s.force = np.sum(force)
     s.stiffness = np.sum(stiffness)
@@ -135,13 +146,24 @@ def _advance_interface(
 
 @kernel
 def advance_to(
-    t_stop, slider, state, streams, events, scratch, param_array, strength, tables, protocol
+    t_stop,
+    slider,
+    state,
+    streams,
+    events,
+    scratch,
+    param_array,
+    strength,
+    tables,
+    coupled,
+    protocol,
 ) -> None:
     """Advance the interface and the slider from ``slider.time`` to ``t_stop`` [s].
 
     ``state`` is ``(y, h, age, slip, lifetime)`` (see :mod:`.contacts`); ``scratch`` two
     float arrays of length n_contacts for the contacts' forces and stiffnesses;
-    ``param_array`` the one-element PARAMS array.
+    ``param_array`` the one-element PARAMS array; ``coupled`` None for independent blocks
+    (the chain kernel is then not compiled), True for chains (:mod:`.contacts`).
     """
     params = param_array[0]
     s = slider[0]
@@ -169,7 +191,17 @@ def advance_to(
         velocity = following + s.drift
         before = np.sum(events)
         _advance_interface(
-            slider, state, streams, events, scratch, param_array, strength, tables, velocity, dt
+            slider,
+            state,
+            streams,
+            events,
+            scratch,
+            param_array,
+            strength,
+            tables,
+            coupled,
+            velocity,
+            dt,
         )
         moved = s.position + velocity * dt
         s.time = target if dt >= target - s.time else s.time + dt
@@ -193,7 +225,16 @@ def advance_to(
 
 @kernel
 def settle(
-    slider, state, streams, events, scratch, param_array, strength, tables, max_rounds: int = 1000
+    slider,
+    state,
+    streams,
+    events,
+    scratch,
+    param_array,
+    strength,
+    tables,
+    coupled,
+    max_rounds: int = 1000,
 ) -> int:
     """Apply the pending elastic jump and iterate (depinnings it triggers) to balance.
 
@@ -204,7 +245,17 @@ def settle(
     s = slider[0]
     for rounds in range(1, max_rounds + 1):
         _advance_interface(
-            slider, state, streams, events, scratch, param_array, strength, tables, 0.0, 0.0
+            slider,
+            state,
+            streams,
+            events,
+            scratch,
+            param_array,
+            strength,
+            tables,
+            coupled,
+            0.0,
+            0.0,
         )
         s.pending = _balance_jump(s.position, s.load_point, s.force, s.stiffness, params)
         s.position += s.pending
@@ -215,10 +266,19 @@ def settle(
 
 @kernel
 def advance_to_sample(
-    t_sample, slider, state, streams, events, scratch, param_array, strength, tables, protocol
+    t_sample,
+    slider,
+    state,
+    streams,
+    events,
+    scratch,
+    param_array,
+    strength,
+    tables,
+    coupled,
+    protocol,
 ) -> int:
     """:func:`advance_to` ``t_sample``, then :func:`settle`: a balanced stored sample."""
-    advance_to(
-        t_sample, slider, state, streams, events, scratch, param_array, strength, tables, protocol
-    )
-    return settle(slider, state, streams, events, scratch, param_array, strength, tables)
+    arrays = (slider, state, streams, events, scratch, param_array, strength, tables, coupled)
+    advance_to(t_sample, *arrays, protocol)
+    return settle(*arrays)
