@@ -267,6 +267,9 @@ class Run:
         self.state = initial_state(scenario, self.params, self.strength)
         self.scratch = np.zeros((2, scenario.interface.n_contacts))
         chains = scenario.interface.blocks_per_contact > 1 and self.params[0]["kappa"] != 0.0
+        # the parallel contact loop runs nested in the stepper, where Numba does not launch
+        # its thread pool: without this a first step outside simulate() segfaulted
+        numba.get_num_threads()
         self.coupled = True if chains else None  # None: the chain kernel is never compiled
         self.next_sample = 0
         self.snapshots_taken = 0

@@ -121,6 +121,20 @@ def test_same_seed_same_trajectory_with_one_or_two_threads(tmp_path, protocol) -
         np.testing.assert_array_equal(one[name].values, two[name].values, err_msg=name)
 
 
+def test_a_run_stepped_outside_simulate_in_a_fresh_process_does_not_crash() -> None:
+    """``Run.step_to_next_sample`` is public: called in a fresh process before anything
+    started Numba's thread pool, the stepper's nested parallel loop segfaulted."""
+    code = (
+        "import sys; sys.path.insert(0, sys.argv[1]);"
+        "from tests.test_engine import soft_protocol; from nanoblock.engine import Run;"
+        "run = Run(soft_protocol('reset', 0.0)); print(run.step_to_next_sample()['time'])"
+    )
+    root = os.path.dirname(os.path.dirname(__file__))
+    done = subprocess.run([sys.executable, "-c", code, root], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert float(done.stdout) == 0.0
+
+
 def test_different_seeds_differ() -> None:
     first = simulate(soft_protocol())
     second = simulate(soft_protocol().with_seed(99))
