@@ -459,7 +459,7 @@ def fit(
         bool, typer.Option(help="fit K/W even where the metadata state it (from there)")
     ] = False,
     initial_state: Annotated[
-        bool, typer.Option(help="fit the initial state of each run (not in steady sliding)")
+        bool, typer.Option(help="fit each run's initial state and slip velocity (unsteady start)")
     ] = False,
     window: Annotated[str | None, WINDOW] = None,
     recipe: Annotated[Path | None, RECIPE] = None,

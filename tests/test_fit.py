@@ -139,6 +139,44 @@ def test_friction_level_falling_with_load_is_fitted_as_cohesion() -> None:
     assert fit_rsf(data, "aging", stiffness=k).rms_residual > 10 * NOISE
 
 
+def test_a_record_cut_after_a_faster_stretch_is_fitted_from_its_initial_pace() -> None:
+    """Two runs that start in steady sliding at 5 um/s while the load point already runs at
+    1 um/s (reference integrator, white noise 2e-4): with ``initial_state`` the fit finds
+    ln(v(0)/V) = ln 5 and ln(theta(0)/theta_ss) = -ln 5 within z_bound() standard errors and
+    fits within noise. Holding out run 1 whole, its offsets stay at those run 0 starts the
+    refit from (nothing constrains them): they do not wander along a null direction."""
+    rng = np.random.default_rng(29)
+    truth = {"mu0": 0.6, "a": 0.01, "b": 0.013, "dc": 2e-5, "v0": 1e-6}
+    k = 2.0 * _stable_stiffness(truth)
+    segments = [(1e-6, 40.0), (1e-5, 8.0)]
+    time = np.concatenate([np.geomspace(1e-3, 40.0, 200) - 1e-3, np.linspace(40.0, 48.0, 200)])
+    mu = naive_slider("aging", truth, segments, time, k, initial_velocity=5e-6)
+    velocity = np.where(time < 40.0, 1e-6, 1e-5)
+    displacement = np.where(time < 40.0, 1e-6 * time, 4e-5 + 1e-5 * (time - 40.0))
+    columns = {
+        "time": np.tile(time, 2),
+        "mu": np.tile(mu, 2) + NOISE * rng.standard_normal(2 * time.size),
+        "load_point_velocity": np.tile(velocity, 2),
+        "load_point_displacement": np.tile(displacement, 2),
+        "run": np.repeat([0, 1], time.size),
+    }
+    data = xr.Dataset(
+        {name: ("sample", values) for name, values in columns.items()},
+        attrs={"kind": "time_series", "stiffness_per_load": k},
+    )
+    result = fit_rsf(data, "aging", initial_state=True)
+    for run in (0, 1):
+        for name, value in (("initial_velocity_offset", math.log(5.0)),
+                            ("initial_state_offset", -math.log(5.0))):  # fmt: skip
+            key = f"{name}_{run}"
+            assert abs(result.params[key] - value) < z_bound() * result.stderr[key], key
+    assert result.rms_residual == pytest.approx(NOISE, rel=0.2)
+    hidden = [np.zeros(time.size, dtype=bool), np.ones(time.size, dtype=bool)]
+    refit = fit_rsf(data, "aging", initial_state=True, holdout=hidden, initial=result.params)
+    for name in ("initial_velocity_offset", "initial_state_offset"):
+        assert refit.params[f"{name}_1"] == result.params[f"{name}_0"]
+
+
 def test_held_out_samples_do_not_enter_the_fit() -> None:
     """The tail of a record is corrupted and held out: the fit still recovers the
     truth, and the model predicts the held-out samples (their residual is the offset)."""

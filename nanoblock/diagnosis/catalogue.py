@@ -190,11 +190,17 @@ CATALOGUE: dict[str, Effect] = {
             "the record does not start in steady sliding: a preceding step, hold or "
             "normal-stress change is still relaxing",
             "drift before the step; a slip trend that does not forecast",
-            {"initial_state_offset_<run>": "ln(theta(0) / theta_ss(V(0))) per run"},
+            {
+                "initial_state_offset_<run>": "ln(theta(0) / theta_ss(V(0))) per run",
+                "initial_velocity_offset_<run>": "ln(v(0) / V(0)) per run",
+            },
             "a loading step at another velocity before the record (loading.steps)",
             {"time_series": RsfVariant("aging", initial_state=True)},
             "a friction time series with slip before the first step",
-            ranges={"initial_state_offset": (-10.0, 10.0)},
+            ranges={
+                "initial_state_offset": (-10.0, 10.0),
+                "initial_velocity_offset": (-10.0, 10.0),
+            },
         ),
         Effect(
             "load_dependent_level",

@@ -171,6 +171,8 @@ def _summary(diagnosis: Diagnosis) -> str:
             "The record does not start in steady sliding: friction is still relaxing from an "
             "earlier change (initial state ln(theta/theta_ss) = "
             + ", ".join(f"{v:+.2f}" for k, v in p.items() if k.startswith("initial_state"))
+            + "; slip velocity ln(v/V) = "
+            + ", ".join(f"{v:+.2f}" for k, v in p.items() if k.startswith("initial_velocity"))
             + "); "
         ),
         "slip_trend": lambda p: (

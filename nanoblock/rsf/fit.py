@@ -48,6 +48,10 @@ mu0 + (c / sigma_ref) (W_ref / W - 1) (Amontons' load-independent mu0 at c = 0).
 INITIAL_OFFSET = "initial_state_offset"
 """Prefix of the fitted initial-state offsets ln(theta(0) / theta_ss), one per run
 (``initial_state_offset_0``, ...): a record that does not start in steady sliding."""
+INITIAL_VELOCITY = "initial_velocity_offset"
+"""Prefix of the fitted initial slip-velocity offsets ln(v(0) / V_L(0)), one per run: a
+record cut out after a change of drive starts with the slider still at its old pace."""
+_INITIAL = (INITIAL_OFFSET, INITIAL_VELOCITY)
 MEMORY_LENGTHS = ("dc", "d0", "dc2")
 """Parameters searched within 1e-6 to 1e3 of the data's slip scale."""
 
@@ -459,7 +463,7 @@ class _Setup:
 
 def _free_names(lw: Law, free: Sequence[str] | None, default: Sequence[str]) -> list[str]:
     names = list(free if free is not None else default)
-    unknown = {n for n in names if not n.startswith(INITIAL_OFFSET)}
+    unknown = {n for n in names if not n.startswith(_INITIAL)}
     unknown -= set(lw.names) | {STIFFNESS, TREND, LOAD_EXPONENT, COHESION}
     if unknown:
         raise ValueError(f"cannot fit {sorted(unknown)}: law {lw.name!r} takes {list(lw.names)}")
@@ -481,7 +485,7 @@ def _problem(
         LOAD_EXPONENT: False,
         COHESION: False,
     }
-    log_scale.update({name: False for name in free_names if name.startswith(INITIAL_OFFSET)})
+    log_scale.update({name: False for name in free_names if name.startswith(_INITIAL)})
     scale = float(np.sqrt(np.mean(np.concatenate(observed) ** 2))) or 1.0
     return _Problem(
         lw,
@@ -524,7 +528,7 @@ def _law_params(lw: Law, values: Mapping[str, float], force: float, w_ref: float
 @dataclass(frozen=True)
 class _Options:
     """Time-series extras: K/W free even when the metadata state it (``fit_stiffness``),
-    and a free initial state per run (``initial_state``)."""
+    and a free initial state and slip velocity per run (``initial_state``)."""
 
     fit_stiffness: bool = False
     initial_state: bool = False
@@ -543,7 +547,7 @@ def _time_series_setup(
     options: _Options,
 ) -> _Setup:
     """Velocity steps and slide-hold-slide: the spring-slider from steady sliding (or, with
-    ``options.initial_state``, from a fitted state offset per run)."""
+    ``options.initial_state``, from a fitted state and slip-velocity offset per run)."""
     prepared = prepare_runs(data)
     v0 = float(prepared[0].history.velocities[0])
     if not v0 > 0.0:
@@ -558,12 +562,13 @@ def _time_series_setup(
     else:
         params[STIFFNESS] = float(given)
     offsets = [f"{INITIAL_OFFSET}_{i}" for i in range(len(prepared))]
+    paces = [f"{INITIAL_VELOCITY}_{i}" for i in range(len(prepared))]
     scales = stiffness_scales(data, prepared)
     if options.initial_state:
         if not lw.state_names[0].startswith("ln_"):
             raise ValueError(f"law {lw.name!r}: a fitted initial state needs an ln(theta) state")
-        free_names.extend(offsets)
-        for name in offsets:
+        free_names.extend([*offsets, *paces])
+        for name in (*offsets, *paces):
             params.setdefault(name, 0.0)
     if trend:
         free_names.append(TREND)
@@ -591,17 +596,19 @@ def _time_series_setup(
         run, offset = prepared[index], offsets[index]
         law_params = _law_params(lw, values, run.normal_force, w_ref)
         stiffness = values[STIFFNESS] * scales[index]
-        start = None
+        start, pace = None, None
         if offset in values:  # ln theta_i(0) = ln theta_ss(V(0)) + offset
             steady = lw.steady_state(run.history.velocities[0], lw.pack(law_params))
             start = tuple(float(s) + values[offset] for s in steady)
-        key = (twins[index], tuple(sorted(law_params.items())), stiffness, start, rtol)
+        if paces[index] in values:  # ln v(0) = ln V_L(0) + offset
+            pace = float(run.history.velocities[0]) * math.exp(values[paces[index]])
+        key = (twins[index], tuple(sorted(law_params.items())), stiffness, start, pace, rtol)
         if key not in cache:
             if len(cache) >= _CACHED_RUNS:
                 del cache[next(iter(cache))]
             cache[key] = solve_slider(
                 lw, law_params, run.history, run.time, stiffness, rtol=rtol,
-                initial_state=start, max_steps=_FIT_MAX_STEPS,
+                initial_velocity=pace, initial_state=start, max_steps=_FIT_MAX_STEPS,
             ).friction  # fmt: skip
         return cache[key]
 
@@ -846,8 +853,9 @@ def fit_rsf(
     apparatus (use the ``silicon`` or ``two_state`` law). ``load_exponent`` fits
     D_c (W / W_ref)^n across runs at several normal forces (time series and clamped
     samples). ``fit_stiffness`` fits K/W of a time series even when the metadata state it
-    (starting there); ``initial_state`` fits one offset ln(theta(0) / theta_ss(V(0))) per
-    run (``initial_state_offset_<run>``) for records that do not start in steady sliding;
+    (starting there); ``initial_state`` fits the offsets ln(theta(0) / theta_ss(V(0)))
+    and ln(v(0) / V(0)) of every run (``initial_state_offset_<run>``,
+    ``initial_velocity_offset_<run>``) for records that do not start in steady sliding;
     ``cohesion`` fits :data:`COHESION`, a friction level falling with the load across runs.
     ``free`` overrides the free parameters; ``initial`` the starting values (and
     fixes any law parameter that is not free). ``holdout`` (one boolean array per run,
@@ -882,13 +890,39 @@ def fit_rsf(
         fitted = ~np.concatenate([np.asarray(h, dtype=bool) for h in holdout])
         if fitted.size != sum(y.size for y in setup.problem.observed):
             raise ValueError("holdout needs one boolean array per run, one entry per sample")
-        setup = replace(setup, problem=replace(setup.problem, fitted=fitted))
+        setup = _without_hidden_runs(
+            replace(setup, problem=replace(setup.problem, fitted=fitted)), holdout
+        )
     if setup.problem.n_fitted <= len(setup.problem.free) + 2:
         raise DataError(
             f"{setup.problem.n_fitted} samples cannot constrain "
             f"{len(setup.problem.free)} free parameters"
         )
     return _solve(lw, setup, method, mcmc_steps, seed, search)
+
+
+def _without_hidden_runs(setup: _Setup, holdout: Sequence[NDArray[np.bool_]]) -> _Setup:
+    """A run held out whole has no sample to fit its own initial offsets by: they are fixed
+    at the mean of the other runs' (its forecast assumes runs prepared alike) instead of
+    drifting freely along a null direction of the fit."""
+    problem = setup.problem
+    hidden = [i for i, mask in enumerate(holdout) if np.all(mask)]
+    seen = [i for i in range(len(holdout)) if i not in hidden]
+    fixed = {}
+    for prefix in _INITIAL:
+        if hidden and seen and f"{prefix}_{seen[0]}" in problem.free:
+            mean = float(np.mean([setup.start[f"{prefix}_{i}"] for i in seen]))
+            fixed.update({f"{prefix}_{i}": mean for i in hidden})
+    if not fixed:
+        return setup
+    keep = [i for i, name in enumerate(problem.free) if name not in fixed]
+    problem = replace(
+        problem,
+        fixed={**problem.fixed, **fixed},
+        free=tuple(problem.free[i] for i in keep),
+        log_scale=tuple(problem.log_scale[i] for i in keep),
+    )
+    return replace(setup, problem=problem, start={**setup.start, **fixed})
 
 
 def _ordered(
