@@ -114,6 +114,24 @@ def test_next_depinning_splits_hazard_across_horizons() -> None:
     assert 0.5 * t_one + t_b == pytest.approx(t_one, rel=1e-9)
 
 
+@pytest.mark.parametrize("x_rate", [1e-14, -1e-14, 1e-300])
+def test_a_ramp_slower_than_an_ulp_keeps_its_thermal_escape(x_rate: float) -> None:
+    """At a creeping slider's velocity (a hold on a finite spring, where the drift decays
+    to ~1e-25 m/s) x0 + x_rate t rounds to x0: the block must still escape at the rate
+    of its stress, as on a ramp at rest (after need / r(x0), or with that hazard spent).
+    Reading the hazard from x differences froze the creep of every such hold."""
+    table = hazard_table("persson", 50.21)
+    omega_a, x0 = 1e12, 0.8
+    still_t, still_x, _ = next_depinning(x0, 2.0, 0.0, 1.0, omega_a, table)
+    t, x, left = next_depinning(x0, 2.0, x_rate, 1.0, omega_a, table)
+    assert left == 0.0 and still_t < 1.0
+    assert t == pytest.approx(still_t, rel=1e-12) and x == pytest.approx(still_x, abs=1e-13)
+    short = 0.5 * still_t
+    _, _, spent_still = next_depinning(x0, 2.0, 0.0, short, omega_a, table)
+    t, _, spent = next_depinning(x0, 2.0, x_rate, short, omega_a, table)
+    assert t == np.inf and spent == pytest.approx(spent_still, rel=1e-12) and spent < 2.0
+
+
 def test_deterministic_depinning_at_threshold() -> None:
     table = hazard_table("persson", 500.0)  # escape negligible: the ramp reaches sigma_a
     t, x, _ = next_depinning(0.5, 50.0, 1.0, 10.0, 1.0, table)

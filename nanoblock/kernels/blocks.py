@@ -47,17 +47,21 @@ def next_depinning(
     x_end = x0 + x_rate * horizon
     crosses = direction * x_end >= 1.0
     x_limit = direction if crosses else x_end
-    start = 0.0  # R(x0), needed on long ramps only
     if abs(x_limit - x0) < _SHORT_RAMP:
-        available = rate(x0, table) * abs(x_limit - x0) / abs(x_rate)
-    else:
-        start = signed_cumulative(x0, table)
-        available = ramp_hazard(x0, start, x_limit, x_rate, horizon, table)
+        # the rate is constant to first order: hazard and firing time from the time spent,
+        # not from x differences, which round to 0 when the ramp is slower than an ulp
+        r0 = rate(x0, table)
+        span = (direction - x0) / x_rate if crosses else horizon
+        if r0 * span >= need:
+            t_fire = need / r0
+            return t_fire, x0 + x_rate * t_fire, 0.0
+        if crosses:
+            return span, direction, 0.0
+        return np.inf, x_end, h - omega_a * r0 * span
+    start = signed_cumulative(x0, table)
+    available = ramp_hazard(x0, start, x_limit, x_rate, horizon, table)
     if available >= need:
-        if abs(x_limit - x0) < _SHORT_RAMP:
-            x_fire = x0 + direction * need * abs(x_rate) / rate(x0, table)
-        else:
-            x_fire = signed_inverse(start + direction * need * abs(x_rate), table)
+        x_fire = signed_inverse(start + direction * need * abs(x_rate), table)
         t_fire = (x_fire - x0) / x_rate
         t_fire = min(max(t_fire, 0.0), horizon)
         return t_fire, x_fire, 0.0
