@@ -265,7 +265,7 @@ class Run:
         self.protocol = protocol_table(scenario)
         self.times = sample_times(scenario)
         self.state = initial_state(scenario, self.params, self.strength)
-        self.scratch = np.zeros((2, scenario.interface.n_contacts))
+        self.scratch = np.zeros((3, scenario.interface.n_contacts))
         chains = scenario.interface.blocks_per_contact > 1 and self.params[0]["kappa"] != 0.0
         # the parallel contact loop runs nested in the stepper, where Numba does not launch
         # its thread pool: without this a first step outside simulate() segfaulted

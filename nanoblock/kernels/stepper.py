@@ -22,7 +22,11 @@ depinning noise. Two reasons, both measured against an event-by-event reference
 (a stiff spring turns every depinning into a velocity spike), and a limiter reading it
 shrank the steps without bound at K/W >= 1e9 1/m; and steps whose length followed that
 noise (longer whenever the prediction ran ahead) biased the velocity-step transient by
-up to 10 % of its rise, the more so the smaller the force step. A stiff spring leaves a
+up to 10 % of its rise, the more so the smaller the force step. The variance of a step's
+depinning count is the larger of the count and its spread over the contacts
+(:func:`_event_spread`): a chain's avalanches make the drift noisier than independent
+depinnings, and a limiter that took them for a transient cut the chain's steps 15-fold at
+K/W = 1e9 1/m and 1 mm/s. A stiff spring leaves a
 drift of order k_int / K, so its steps run to the samples like a rigid drive's; a soft
 one steps every ``step_slip`` of slip. Default rho~_max / 8; measured: at rho~_max / 16 the
 transient after a velocity step within the reference's noise (0.1e-3 of mu); at
@@ -120,7 +124,7 @@ def _advance_interface(
 ) -> None:
     """Apply the pending jump, slide ``duration`` at ``velocity``, sum forces into the slider."""
     y, h, age, slip, lifetime = state
-    force, stiffness = scratch
+    force, stiffness = scratch[0], scratch[1]
     s = slider[0]
     advance_contacts(
         y,
@@ -145,6 +149,28 @@ def _advance_interface(
 
 
 @kernel
+def _event_spread(events: np.ndarray, before: np.ndarray) -> tuple[float, float]:
+    """Depinnings of one step and the spread of their count over the contacts.
+
+    The spread, n / (n - 1) sum_c (e_c - mean)^2 over the n contacts' counts e_c, estimates
+    the variance of the step's total count: the count itself for independent depinnings
+    (Poisson), the count times E[S^2] / E[S] when they come in avalanches of S blocks (a
+    chain's depinnings trigger their neighbours within the contact).
+    """
+    n = events.shape[0]
+    count = 0.0
+    for c in range(n):
+        count += events[c] - before[c]
+    if n < 2:
+        return count, count
+    mean = count / n
+    spread = 0.0
+    for c in range(n):
+        spread += (events[c] - before[c] - mean) ** 2
+    return count, spread * n / (n - 1)
+
+
+@kernel
 def advance_to(
     t_stop,
     slider,
@@ -160,8 +186,9 @@ def advance_to(
 ) -> None:
     """Advance the interface and the slider from ``slider.time`` to ``t_stop`` [s].
 
-    ``state`` is ``(y, h, age, slip, lifetime)`` (see :mod:`.contacts`); ``scratch`` two
-    float arrays of length n_contacts for the contacts' forces and stiffnesses;
+    ``state`` is ``(y, h, age, slip, lifetime)`` (see :mod:`.contacts`); ``scratch`` three
+    float arrays of length n_contacts: the contacts' forces, stiffnesses and event counts
+    before the step;
     ``param_array`` the one-element PARAMS array; ``coupled`` None for independent blocks
     (the chain kernel is then not compiled), True for chains (:mod:`.contacts`).
     """
@@ -189,7 +216,7 @@ def advance_to(
         if s.last_dt > 0.0:
             dt = min(dt, 2.0 * s.last_dt)
         velocity = following + s.drift
-        before = np.sum(events)
+        scratch[2, :] = events
         _advance_interface(
             slider,
             state,
@@ -211,11 +238,11 @@ def advance_to(
         if spring != np.inf:
             # capped: a runaway slip (module docstring) would stop time
             s.drift = min(max(s.drift + s.pending / dt, -athermal), athermal)
-            count = np.sum(events) - before
+            count, spread = _event_spread(events, scratch[2])
             weight = min(_MAX_WEIGHT, (count + 1.0) / window)
             drop = _DROP * s.force / (blocks * (spring + s.stiffness))
             s.smooth_drift += weight * (s.drift - s.smooth_drift)
-            variance = (1.0 - weight) ** 2 * s.smooth_noise**2 + weight**2 * count * (
+            variance = (1.0 - weight) ** 2 * s.smooth_noise**2 + weight**2 * max(count, spread) * (
                 drop / dt
             ) ** 2
             s.smooth_noise = np.sqrt(variance)
