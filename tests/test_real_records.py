@@ -229,17 +229,17 @@ LAB_FILES = {
 @pytest.mark.slow
 @needs_lab
 def test_laboratory_records_get_catalogue_causes_with_plausible_parameters() -> None:
-    """At least 4 of the 6 records get a catalogue cause, p4309's sawtooth is called
-    unstable_sliding, and every accepted extension has plausible parameters and forecasts
-    the held-out halves better than the base model. The issue asks 5 of 6, which held
-    while two_state_variable had no simulator option; with the second contact population
-    the simulation check contradicts it on the 75 MPa 2.3 -> 23 um/s step (simulated
-    systematic misfit 0.00074 -> 0.0011 at 500 contacts, 0.00044 -> 0.0010 at 4000), so
-    that record is `unexplained` with the cause not confirmed: 4 of 6, a measured
-    shortfall of the acceptance, not a tolerance."""
+    """At least 5 of the 6 records (the issue's acceptance) get a catalogue cause with the
+    simulation check on, p4309's sawtooth is called unstable_sliding, and every accepted
+    extension has plausible parameters and forecasts the held-out halves better than the
+    base model. Measured: 5, the 100 MPa 2.3 -> 23 um/s step `unexplained` (machine
+    stiffness and a second state each remove ~40 % of the excess over the noise); the
+    75 MPa 2.3 -> 23 um/s step's two_state_variable is confirmed by the simulator
+    (systematic misfit 0.00036 -> 0.00029), which contradicted it (4 of 6) before the
+    calibration counted the contacts' area factor, the run-in and the seeds' noise."""
     named = 0
     for name, expected in LAB_FILES.items():
-        result = diagnose(load_measurement(SHARED_DATA / name))
+        result = diagnose(load_measurement(SHARED_DATA / name), simulate=True)
         if expected is not None:
             assert result.cause == expected, name
         if result.cause in CATALOGUE:
@@ -248,7 +248,7 @@ def test_laboratory_records_get_catalogue_causes_with_plausible_parameters() -> 
         if extended is not None:
             assert extended.implausible == []
             assert result.base.heldout_error / extended.heldout_error > 1.0
-    assert named >= 4
+    assert named >= 5
 
 
 TWO_LOADS = ("p655_75MPa_vstep_2p3to23.csv", "p655_100MPa_vstep_2p3to23.csv")
