@@ -6,12 +6,14 @@ The slider is rebalanced, K (X_L - X) = F, after every depinning: no prediction,
 internal step. Measured (16 seeds, the scenario of :func:`velocity_step`): a fixed-step
 coin-flip variant (step rho~_max / 2000 and / 500 of load travel) converges to it linearly
 in the step, the finer one within 0.1e-3 of friction coefficient. ``python -m
-tests.naive_quasistatic`` writes :data:`REFERENCE_FILE` (about 5 minutes).
+tests.naive_quasistatic`` writes :data:`REFERENCE_FILE` (about 5 minutes), ``python -m
+tests.naive_quasistatic runaway`` :data:`RUNAWAY_FILE` (about 10 minutes).
 """
 
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +24,9 @@ from tests.conftest import scenario
 
 REFERENCE_FILE = Path(__file__).with_name("velocity_step_reference.json")
 """Per-seed friction of :func:`velocity_step` by :func:`simulate_events`."""
+
+RUNAWAY_FILE = Path(__file__).with_name("runaway_reference.json")
+"""Per-seed friction of :func:`runaway` by :func:`simulate_events`."""
 
 STEP_TIME = 0.01
 """Time of the velocity step in :func:`velocity_step` [s]."""
@@ -50,6 +55,27 @@ def velocity_step(seed: int, step_slip: float | None = None) -> Scenario:
             ],
         },
         run={"record_every": SAMPLE_EVERY, "seed": seed, "step_slip": step_slip},
+    )
+
+
+def runaway(seed: int, step_slip: float | None = None) -> Scenario:
+    """A soft spring on a velocity-weakening interface: K / W = 4e4 1/m, below the
+    critical stiffness of contacts ageing with m = 0.05 over tau_m = 0.1 ms and renewed
+    over D0 = 0.5 um. Started in the steady state at 1 um/s, on most seeds the slider runs
+    away within 0.1 um of load travel and slides about 3.7 um, renewing every contact
+    several times, before the spring arrests it (the slip phase of stick-slip, 001/Fig.
+    15). 200 one-block contacts; samples every 1 ms."""
+    return scenario(
+        joint={"temperature": 293.15},
+        interface={
+            "n_contacts": 200,
+            "blocks_per_contact": 1,
+            "memory_length": 0.5e-6,
+            "aging_m": 0.05,
+            "aging_time": 1e-4,
+        },
+        loading={"stiffness": 4e4, "steps": [{"velocity": 1e-6, "displacement": 1e-7}]},
+        run={"seed": seed, "record_every": 1e-3, "step_slip": step_slip},
     )
 
 
@@ -160,5 +186,17 @@ def write_reference(seeds: range = range(1, 17)) -> None:
     REFERENCE_FILE.write_text(json.dumps({"first_time": first, "curves": curves}) + "\n")
 
 
+def write_runaway_reference(seeds: range = range(1, 13)) -> None:
+    """Friction of :func:`runaway` by :func:`simulate_events` for ``seeds`` into
+    :data:`RUNAWAY_FILE`."""
+    curves = {}
+    for seed in seeds:
+        run = runaway(seed)
+        mu, events = simulate_events(run, sample_times(run))
+        curves[str(seed)] = mu.tolist()
+        print(seed, events, flush=True)
+    RUNAWAY_FILE.write_text(json.dumps({"curves": curves}) + "\n")
+
+
 if __name__ == "__main__":
-    write_reference()
+    write_runaway_reference() if sys.argv[1:] == ["runaway"] else write_reference()
