@@ -41,14 +41,15 @@ from nanoblock.theory.meanfield import MeanFieldJoint, sample_q_stationary
 from nanoblock.threads import ThreadBudget
 
 COMPILING = (
-    "compiling kernels (once after install): about {minutes} min on 2 cores, "
+    "compiling kernels (once after install): about {seconds:.0f} s on 2 cores, "
     "then loaded from the cache in seconds"
 )
 """Shown on stderr, with a progress bar, when the kernels are not in Numba's cache."""
 
-COMPILE_MINUTES = 1.5
-"""Measured cold compile of the quickstart's kernels, 2-core machine
-(``benchmarks/bench_quickstart.py``), rounded up [min]."""
+COMPILE_SECONDS = {"independent blocks": 15.0, "chains": 40.0}
+"""Measured cold compile of the kernels a run needs, 2-core machine, rounded up [s]:
+independent blocks (the quickstart) and chains, which also compile the chain kernel
+(``benchmarks/bench_quickstart.py``, ``compile`` and ``chain, compile``)."""
 
 TRANSIENT_FORCE_STEP = 0.005
 """epsilon: in transients one internal step changes the force by at most epsilon alpha F."""
@@ -452,7 +453,8 @@ def simulate(
     check_feasible(scenario)
     run = Run(scenario)
     if progress and not cached(advance_to_sample, run.kernel_arguments(0.0)):
-        print(COMPILING.format(minutes=COMPILE_MINUTES), file=sys.stderr, flush=True)
+        kind = "independent blocks" if run.coupled is None else "chains"
+        print(COMPILING.format(seconds=COMPILE_SECONDS[kind]), file=sys.stderr, flush=True)
     writer = RunStore(store) if store is not None else None
     interval = FLUSH_SECONDS if flush_seconds is None else flush_seconds
     previous = None

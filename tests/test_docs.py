@@ -266,3 +266,13 @@ def test_readme_laboratory_verdicts_are_those_the_benchmark_wrote() -> None:
     section = README.read_text().split("## On laboratory records")[1].split("\n## ")[0]
     shown = re.findall(r"^\| [^|]+ \| `([a-z_]+)` \|", section, flags=re.MULTILINE)
     assert shown == expected
+
+
+def test_readme_quick_start_times_are_those_the_benchmark_wrote() -> None:
+    """The first-run, compile and warm-run seconds the README quotes are those
+    ``benchmarks/bench_quickstart.py`` wrote to results_quickstart.json, rounded."""
+    results = json.loads((ROOT / "benchmarks" / "results_quickstart.json").read_text())
+    section = README.read_text().split("## Quick start")[1].split("\n## ")[0]
+    quoted = [int(n) for n in re.findall(r"(\d+) s\b", section)]
+    expected = [results["cold"]["wall"], results["compile"], results["warm"]["wall"]]
+    assert quoted == [round(value) for value in expected]
