@@ -191,9 +191,8 @@ def advance_to(
 
     ``state`` is ``(y, h, age, slip, lifetime)`` (see :mod:`.contacts`); ``scratch`` three
     float arrays of length n_contacts: the contacts' forces, stiffnesses and event counts
-    before the step;
-    ``param_array`` the one-element PARAMS array; ``coupled`` None for independent blocks
-    (the chain kernel is then not compiled), True for chains (:mod:`.contacts`).
+    before the step; ``param_array`` the one-element PARAMS array; ``coupled`` None for
+    independent blocks (the chain kernel is then not compiled), True for chains.
     """
     params = param_array[0]
     s = slider[0]
