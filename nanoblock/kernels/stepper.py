@@ -113,18 +113,9 @@ def _balance_jump(position: float, load: float, force: float, k_int: float, para
 
 @kernel
 def _advance_interface(
-    slider,
-    state,
-    streams,
-    events,
-    scratch,
-    param_array,
-    strength,
-    tables,
-    coupled,
-    velocity,
+    slider, state, streams, events, scratch, param_array, strength, tables, coupled, velocity,
     duration,
-) -> None:
+) -> None:  # fmt: skip
     """Apply the pending jump, slide ``duration`` at ``velocity``, sum forces into the slider."""
     y, h, age, slip, lifetime = state
     force, stiffness = scratch[0], scratch[1]
@@ -175,18 +166,9 @@ def _event_spread(events: np.ndarray, before: np.ndarray) -> tuple[float, float]
 
 @kernel
 def advance_to(
-    t_stop,
-    slider,
-    state,
-    streams,
-    events,
-    scratch,
-    param_array,
-    strength,
-    tables,
-    coupled,
+    t_stop, slider, state, streams, events, scratch, param_array, strength, tables, coupled,
     protocol,
-) -> None:
+) -> None:  # fmt: skip
     """Advance the interface and the slider from ``slider.time`` to ``t_stop`` [s].
 
     ``state`` is ``(y, h, age, slip, lifetime)`` (see :mod:`.contacts`); ``scratch`` three
@@ -220,18 +202,9 @@ def advance_to(
         velocity = following + s.drift
         scratch[2, :] = events
         _advance_interface(
-            slider,
-            state,
-            streams,
-            events,
-            scratch,
-            param_array,
-            strength,
-            tables,
-            coupled,
-            velocity,
-            dt,
-        )
+            slider, state, streams, events, scratch, param_array, strength, tables, coupled,
+            velocity, dt,
+        )  # fmt: skip
         moved = s.position + velocity * dt
         s.time = target if dt >= target - s.time else s.time + dt
         s.load_point, _, _ = load_point(s.time, protocol)
@@ -254,17 +227,9 @@ def advance_to(
 
 @kernel
 def settle(
-    slider,
-    state,
-    streams,
-    events,
-    scratch,
-    param_array,
-    strength,
-    tables,
-    coupled,
+    slider, state, streams, events, scratch, param_array, strength, tables, coupled,
     max_rounds: int = 1000,
-) -> int:
+) -> int:  # fmt: skip
     """Apply the pending elastic jump and iterate (depinnings it triggers) to balance.
 
     Afterwards the blocks sit at ``slider.position`` and ``slider.force`` equals the
@@ -274,18 +239,9 @@ def settle(
     s = slider[0]
     for rounds in range(1, max_rounds + 1):
         _advance_interface(
-            slider,
-            state,
-            streams,
-            events,
-            scratch,
-            param_array,
-            strength,
-            tables,
-            coupled,
-            0.0,
-            0.0,
-        )
+            slider, state, streams, events, scratch, param_array, strength, tables, coupled,
+            0.0, 0.0,
+        )  # fmt: skip
         s.pending = _balance_jump(s.position, s.load_point, s.force, s.stiffness, params)
         s.position += s.pending
         if abs(s.pending) * s.stiffness <= _BALANCE * max(abs(s.force), 1e-300):
@@ -295,18 +251,9 @@ def settle(
 
 @kernel
 def advance_to_sample(
-    t_sample,
-    slider,
-    state,
-    streams,
-    events,
-    scratch,
-    param_array,
-    strength,
-    tables,
-    coupled,
+    t_sample, slider, state, streams, events, scratch, param_array, strength, tables, coupled,
     protocol,
-) -> int:
+) -> int:  # fmt: skip
     """:func:`advance_to` ``t_sample``, then :func:`settle`: a balanced stored sample."""
     arrays = (slider, state, streams, events, scratch, param_array, strength, tables, coupled)
     advance_to(t_sample, *arrays, protocol)
