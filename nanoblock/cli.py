@@ -285,7 +285,7 @@ def run(
         _claim_store(out, parsed)
         _claim_file(png, out, "--figure")
         _announce_resume(out)
-        result = simulate(parsed, out, progress=not quiet, flush_seconds=flush_seconds)
+        result = simulate(parsed, out, progress=not quiet, flush_seconds=flush_seconds, lazy=False)
     with tempfile.TemporaryDirectory() as scratch:
         drawn = plot_friction(result, Path(scratch) / png.name, title=path.stem)
         _place_figure(drawn, png, out)

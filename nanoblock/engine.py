@@ -435,13 +435,16 @@ def simulate(
     seed: int | None = None,
     progress: bool = False,
     flush_seconds: float | None = None,
+    lazy: bool = True,
 ) -> xr.Dataset:
     """Run ``scenario`` and return its samples as an ``xarray.Dataset``.
 
     With ``store``, samples stream into a zarr v3 store as the run goes, flushed with a
     checkpoint and the ``progress`` attrs every ``flush_seconds`` of wall time (default
     :data:`FLUSH_SECONDS`); if the store holds an unfinished run of the same scenario, the
-    run resumes from its last checkpoint. Without a store, the Dataset (with block
+    run resumes from its last checkpoint, and the store is returned opened lazily (dask
+    arrays), or with ``lazy=False`` its samples only, read into memory without dask
+    (:meth:`~nanoblock.store.RunStore.load_samples`). Without a store, the Dataset (with block
     snapshots if ``run.snapshot_every`` > 0) is built in memory. ``progress`` shows a
     progress bar (share of the expected depinnings done, slider slip since the run or its
     resume started, events/s, and an ETA from the work done), preceded on stderr by
@@ -506,7 +509,7 @@ def simulate(
     bar.close()
     if writer is not None:
         writer.update_attrs(complete=True)
-        return writer.open()
+        return writer.open() if lazy else writer.load_samples()
     result = dataset(_stack(all_samples), SAMPLES, "time").assign_attrs(provenance(scenario))
     result.attrs["complete"] = True
     if all_snaps:

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import matplotlib
 
 matplotlib.use("Agg")
-import dask.array as da
 import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
@@ -19,6 +19,9 @@ from nanoblock.params import Scenario
 from nanoblock.snapshots import open_snapshots, steady_window
 from nanoblock.store import RunStore
 from nanoblock.theory.meanfield import q_stationary
+
+if TYPE_CHECKING:
+    import dask.array as da
 
 HISTOGRAM_BINS = 60
 """Bins of the block-stress and contact-age histograms."""
@@ -73,6 +76,8 @@ def _velocity_figure(run: xr.Dataset, path: Path, title: str) -> Path:
 
 def _density(values: da.Array, edges: np.ndarray) -> np.ndarray:
     """Normalised histogram of a dask array, computed chunk by chunk."""
+    import dask.array as da  # here only: ``nanoblock run`` draws its figure without dask
+
     counts = da.histogram(values, bins=edges)[0].compute()
     return counts / max(counts.sum(), 1) / np.diff(edges)
 

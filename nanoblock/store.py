@@ -23,7 +23,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import dask.array
 import numpy as np
 import xarray as xr
 import zarr
@@ -325,10 +324,24 @@ class RunStore:
             return xr.open_zarr(self.path, consolidated=False)
         return self.open_to(int(pointer["samples"]), int(pointer.get("snapshots", 0)))
 
+    def load_samples(self) -> xr.Dataset:
+        """The samples of a finished run (no snapshots) read into memory as numpy arrays,
+        decoded as :meth:`open` decodes them. Unlike :meth:`open` it neither imports nor
+        computes with dask (together about half a second, most of it importing
+        ``distributed``, which a dask compute does to look for a client)."""
+        if not self.attrs.get("complete", True):
+            raise StoreError(f"{self.path}: the run is unfinished; open() shows what it holds")
+        snapshots = [*SNAPSHOTS, "snapshot_time"]
+        return xr.open_zarr(
+            self.path, consolidated=False, chunks=None, drop_variables=snapshots
+        ).load()
+
     def open_to(self, n_samples: int, n_snapshots: int) -> xr.Dataset:
         """The first ``n_samples`` samples and ``n_snapshots`` snapshots, read lazily
         array by array and decoded as xarray does (zarr v3: no fill-value mask), whatever
         lies beyond them."""
+        import dask.array  # here only: a finished run is read without dask (load_samples)
+
         group = zarr.open_group(self.path, mode="r")
         variables = {}
         for array, keep in _appended(group, n_samples, n_snapshots):
