@@ -4,19 +4,31 @@ A spring-slider below its critical stiffness K_c / W = (b - a) / D_c (001/Eqs. 9
 not slide steadily: friction rises elastically, then drops in a fast slip event, again and
 again, with a period in load-point travel set by K and the drop size. No smooth
 rate-and-state solution follows a sawtooth, so the diagnosis looks for the drops
-themselves before it fits anything. In each constant-velocity segment friction is
-interpolated onto a uniform grid of load-point travel (the sampling of lab records is
-irregular and densest during slip events), detrended by a running mean over a tenth of
-the segment, and its autocorrelation searched for a secondary peak after the first zero
-crossing: a repeating cycle keeps at least ``MIN_PERIODICITY`` both at that lag and at
-twice it, while a random bump of coloured noise does not repeat (AR(1) noise with
-phi = 0.95: at most 0.04 over 20 seeds). A segment holds stick-slip when it is periodic and has at
-least ``MIN_DROPS`` *drops*, maximal runs of falling samples whose total fall exceeds
-``DROP_NOISE`` times the white noise of the record.
+themselves before it fits anything. A *drop* is a maximal run of falling samples whose
+total fall exceeds ``DROP_NOISE`` times the white noise of the record. A
+constant-velocity segment holds stick-slip when either
+
+- it is long and periodic: at least ``MIN_DROPS`` drops, and friction, interpolated onto a
+  uniform grid of load-point travel (lab sampling is irregular and densest during slip
+  events) and detrended by a running mean over a tenth of the segment, keeps an
+  autocorrelation of at least ``MIN_PERIODICITY`` at its first secondary peak and at
+  twice that lag (a random bump of coloured noise does not repeat: AR(1) noise with
+  phi = 0.95 reached at most 0.04 over 20 seeds); or
+- it is short but a sawtooth: at least ``MIN_SAWTOOTH_DROPS`` drops. After the first
+  (which may be a step's transient) each exceeds ``SAWTOOTH_NOISE`` white-noise
+  deviations (drops just above the threshold would look regular by truncation alone),
+  their sizes and spacings in travel stay within ``REGULARITY`` of their medians, and
+  they carry at least ``FALL_SHARE`` of every fall up to the last (noise falls as often
+  as it rises), while rises as fast as a drop carry at most the rest of every rise
+  (friction reloads elastically; a spike rises as fast as it falls); each drop falls
+  within ``ABRUPTNESS`` of the spacing (a fast slip, not the half-cycle of an
+  oscillation). Coloured noise, oscillations and smooth transients
+  do not pass it (``tests/test_real_records.py`` states the rate).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -30,6 +42,17 @@ MIN_DROPS = 8
 """Drops a segment needs to count as a stick-slip cycle."""
 MIN_PERIODICITY = 0.3
 """Smallest autocorrelation of a cycle at its period and at twice it."""
+MIN_SAWTOOTH_DROPS = 4
+"""Drops a short segment needs: three cycles after the first, two spacings to compare."""
+SAWTOOTH_NOISE = 4 * DROP_NOISE
+"""Smallest drop of a short sawtooth, in white-noise standard deviations."""
+REGULARITY = 0.25
+"""Largest relative deviation of a drop's size or spacing from their medians."""
+ABRUPTNESS = 0.25
+"""Largest travel of a drop, in units of the median spacing between drops."""
+FALL_SHARE = 0.8
+"""Smallest share of all falls (second drop to last) the drops carry."""
+"""Smallest share of all falls (second drop to last) the drops carry."""
 
 
 @dataclass(frozen=True)
@@ -47,7 +70,10 @@ class StickSlip:
     period: float
     """Median load-point travel between drops [m]."""
     periodicity: float
-    """Secondary autocorrelation peak of the detrended friction."""
+    """Secondary autocorrelation peak of the detrended friction (0 when too short)."""
+    regularity: float
+    """Largest relative deviation of drop sizes and spacings from their medians, after
+    the first cycle (inf with fewer than ``MIN_SAWTOOTH_DROPS`` drops)."""
 
     def to_json(self) -> dict[str, float | int]:
         return asdict(self)
@@ -88,6 +114,34 @@ def periodicity(travel: np.ndarray, mu: np.ndarray) -> float:
     return float(min(correlation[lag], correlation[2 * lag]))
 
 
+def regularity(travel: np.ndarray, fall: np.ndarray, ends: np.ndarray) -> float:
+    """Largest |x / median(x) - 1| over the sizes of the drops after the first and the
+    travel spacings after the first (inf below ``MIN_SAWTOOTH_DROPS`` drops)."""
+    if fall.size < MIN_SAWTOOTH_DROPS:
+        return math.inf
+    sizes, spacings = fall[1:], np.diff(travel[ends])[1:]
+    if np.median(spacings) <= 0.0:
+        return math.inf
+    return float(max(np.max(np.abs(x / np.median(x) - 1.0)) for x in (sizes, spacings)))
+
+
+def is_sawtooth(travel: np.ndarray, mu: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> bool:
+    """Whether the drops ``starts``/``ends`` (indices into a segment's ``travel`` and
+    ``mu``) are abrupt and, after the first cycle, carry ``FALL_SHARE`` of all falls up
+    to the last while rises as fast as a drop carry at most 1 - ``FALL_SHARE`` of all
+    rises (the regularity of sizes and spacings is checked by :func:`regularity`)."""
+    spacing = float(np.median(np.diff(travel[ends])))
+    if np.max(travel[ends] - travel[starts]) > ABRUPTNESS * spacing:
+        return False
+    steps = np.diff(mu[starts[1] : ends[-1] + 1])
+    carried = mu[starts[1:]] - mu[ends[1:]]
+    if float(np.sum(carried)) < FALL_SHARE * float(-np.sum(steps[steps < 0])):
+        return False
+    rate = steps / np.maximum(np.diff(travel[starts[1] : ends[-1] + 1]), 1e-300)
+    fast = rate > float(np.median(carried)) / (ABRUPTNESS * spacing)
+    return float(np.sum(steps[fast])) <= (1.0 - FALL_SHARE) * float(np.sum(steps[steps > 0]))
+
+
 def find_stick_slip(prepared: list[RunData]) -> list[StickSlip]:
     """Every segment of every run that holds a regular stick-slip cycle."""
     noise = noise_level([run.mu for run in prepared])
@@ -97,21 +151,29 @@ def find_stick_slip(prepared: list[RunData]) -> list[StickSlip]:
         segment = history.segment_at(run.time)
         for k, velocity in enumerate(history.velocities):
             inside = np.flatnonzero(segment == k)
-            if velocity <= 0.0 or inside.size < 2 * MIN_DROPS:
+            if velocity <= 0.0 or inside.size < 2 * MIN_SAWTOOTH_DROPS:
                 continue
             mu = run.mu[inside]
             starts, ends = falling_runs(mu)
-            fall = mu[starts] - mu[ends]
-            big = fall > DROP_NOISE * noise
-            if big.sum() < MIN_DROPS:
+            big = mu[starts] - mu[ends] > DROP_NOISE * noise
+            starts, ends = starts[big], ends[big]
+            if starts.size < MIN_SAWTOOTH_DROPS:
                 continue
             travel = run.load_point_displacement[inside]
-            peak = periodicity(travel, mu)
-            if peak >= MIN_PERIODICITY:
-                first = float(run.time[inside][starts[big][0]])
-                period = float(np.median(np.diff(travel[ends[big]])))
-                drop = float(np.median(fall[big]))
+            fall = mu[starts] - mu[ends]
+            peak = periodicity(travel, mu) if starts.size >= MIN_DROPS else 0.0
+            regular = regularity(travel, fall, ends)
+            sawtooth = (
+                regular <= REGULARITY
+                and np.min(fall[1:]) > SAWTOOTH_NOISE * noise
+                and is_sawtooth(travel, mu, starts, ends)
+            )
+            if peak >= MIN_PERIODICITY or sawtooth:
                 found.append(
-                    StickSlip(index, float(velocity), first, int(big.sum()), drop, period, peak)
-                )
+                    StickSlip(
+                        index, float(velocity), float(run.time[inside][starts[0]]),
+                        int(starts.size), float(np.median(fall)),
+                        float(np.median(np.diff(travel[ends]))), peak, regular,
+                    )
+                )  # fmt: skip
     return found
