@@ -5,7 +5,8 @@ velocity-step record (aging law with a slip trend, noise 2e-4), on each laborato
 step in ``../shared/data`` and on the two 2.3 -> 23 um/s steps at 75 and 100 MPa combined
 as two runs of one record (18,160 samples; issue 15: under 60 s for the 12,502-sample
 record, under 120 s for the combined one), and records each verdict with its forecast
-gain, the accepted parameters, the noise model and the window study. Laboratory entries
+gain, the accepted parameters, the noise model, the window study and the wall time of the
+(last) simulation check (issue 16: under 15 s per record). Laboratory entries
 are skipped when the data are absent.
 
 Run: ``python benchmarks/bench_diagnosis.py``; writes ``benchmarks/results_diagnosis.json``
@@ -54,6 +55,7 @@ def timed(data: xr.Dataset) -> dict:
         "stick_slip": [event.to_json() for event in result.stick_slip],
         "not_confirmed": result.not_confirmed,
         "simulation_check": result.simulation_check.get("status", "not_run"),
+        "simulation_seconds": result.simulation_check.get("seconds"),
         "dc_growth": result.window_study.get("dc_growth"),
     }
 

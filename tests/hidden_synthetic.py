@@ -63,7 +63,7 @@ COLOURED_SHARE = 1.0 / 3.0
 
 def _protocol(d0: float, v1: float) -> list[tuple[float, float]]:
     """Load-point (velocity [m/s], duration [s]): 10 D, up-step 30 D, down-step 100 D
-    (long enough for eight stick-slip cycles), hold 100 D / v1, reslide 15 D."""
+    (4-6 stick-slip cycles below the critical stiffness), hold 100 D / v1, reslide 15 D."""
     return [
         (v1, 10 * d0 / v1),
         (10 * v1, 30 * d0 / (10 * v1)),

@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import json
 import math
+import time
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -447,7 +448,8 @@ def simulation_check(
 ) -> dict[str, Any]:
     """Simulate the data's protocol with the base interface and with ``extension``
     switched on, each with ``seeds`` seeds from ``seed``; the misfit of each against the
-    data (``status`` ``"ran"``) or why the check cannot run (``"not_run"``).
+    data (``status`` ``"ran"``, with the wall ``seconds`` the simulations took) or why the
+    check cannot run (``"not_run"``).
 
     The interfaces are built by the mapping (:class:`Targets`, :func:`finished`); the
     friction level is matched to each run by the mean difference, so the misfit measures
@@ -469,6 +471,7 @@ def simulation_check(
     stiffness = float(base_params[STIFFNESS])
     noise = noise_level([r.mu for r in prepared])
     misfits: dict[str, list[dict]] = {"base": [], "extended": []}
+    started = time.perf_counter()
     try:
         for run, per_run in zip(prepared, stiffness_scales(data, prepared), strict=True):
             built = _interfaces(
@@ -504,6 +507,7 @@ def simulation_check(
         "base": base_misfit,
         "extended": extended_misfit,
         "systematic_variance_removed": fall,
+        "seconds": time.perf_counter() - started,
         "summary": (
             f"nanoblock simulation ({seeds} x {n_contacts} contacts, lengths and times "
             f"x {scale:.3g}, {scales:.3g} extended): "
