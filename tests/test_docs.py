@@ -268,6 +268,20 @@ def test_readme_laboratory_verdicts_are_those_the_benchmark_wrote() -> None:
     assert shown == expected
 
 
+def test_readme_hidden_effect_matrix_is_the_one_the_benchmark_wrote() -> None:
+    """The README's time-series confusion matrix and its count of right verdicts are those
+    ``benchmarks/bench_hidden_effects.py 8 8 time_series`` wrote."""
+    from tests.hidden_matrix import markdown
+
+    path = ROOT / "benchmarks" / "results_hidden_effects_time_series.json"
+    results = json.loads(path.read_text())
+    section = README.read_text().split("## Hidden effects")[1].split("\n## ")[0]
+    assert results["complete"] and markdown(results["confusion"]) in section
+    right = results["all"]
+    assert f"{right['right']} of {right['cases']} right" in " ".join(section.split())
+    assert f"lower bound {right['lower_bound']:.2f}" in section
+
+
 def test_readme_quick_start_times_are_those_the_benchmark_wrote() -> None:
     """The first-run, compile and warm-run seconds the README quotes are those
     ``benchmarks/bench_quickstart.py`` wrote to results_quickstart.json, rounded."""
