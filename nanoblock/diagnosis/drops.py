@@ -22,8 +22,8 @@ constant-velocity segment holds stick-slip when either
   as it rises), while rises as fast as a drop carry at most the rest of every rise
   (friction reloads elastically; a spike rises as fast as it falls); each drop falls
   within ``ABRUPTNESS`` of the spacing (a fast slip, not the half-cycle of an
-  oscillation). Coloured noise, oscillations and smooth transients
-  do not pass it (``tests/test_real_records.py`` states the rate).
+  oscillation). Coloured noise, oscillations and smooth transients do not pass it
+  (``tests/test_real_records.py`` states the rate).
 """
 
 from __future__ import annotations
@@ -52,7 +52,6 @@ ABRUPTNESS = 0.25
 """Largest travel of a drop, in units of the median spacing between drops."""
 FALL_SHARE = 0.8
 """Smallest share of all falls (second drop to last) the drops carry."""
-"""Smallest share of all falls (second drop to last) the drops carry."""
 
 
 @dataclass(frozen=True)
@@ -73,7 +72,7 @@ class StickSlip:
     """Secondary autocorrelation peak of the detrended friction (0 when too short)."""
     regularity: float
     """Largest relative deviation of drop sizes and spacings from their medians, after
-    the first cycle (inf with fewer than ``MIN_SAWTOOTH_DROPS`` drops)."""
+    the first cycle."""
 
     def to_json(self) -> dict[str, float | int]:
         return asdict(self)
@@ -125,20 +124,22 @@ def regularity(travel: np.ndarray, fall: np.ndarray, ends: np.ndarray) -> float:
     return float(max(np.max(np.abs(x / np.median(x) - 1.0)) for x in (sizes, spacings)))
 
 
-def is_sawtooth(travel: np.ndarray, mu: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> bool:
+def is_sawtooth(
+    travel: np.ndarray, mu: np.ndarray, starts: np.ndarray, ends: np.ndarray, period: float
+) -> bool:
     """Whether the drops ``starts``/``ends`` (indices into a segment's ``travel`` and
-    ``mu``) are abrupt and, after the first cycle, carry ``FALL_SHARE`` of all falls up
-    to the last while rises as fast as a drop carry at most 1 - ``FALL_SHARE`` of all
-    rises (the regularity of sizes and spacings is checked by :func:`regularity`)."""
-    spacing = float(np.median(np.diff(travel[ends])))
-    if np.max(travel[ends] - travel[starts]) > ABRUPTNESS * spacing:
+    ``mu``; ``period`` their median spacing in travel) are abrupt and, after the first
+    cycle, carry ``FALL_SHARE`` of all falls up to the last while rises as fast as a drop
+    carry at most 1 - ``FALL_SHARE`` of all rises (the regularity of sizes and spacings is
+    checked by :func:`regularity`)."""
+    if np.max(travel[ends] - travel[starts]) > ABRUPTNESS * period:
         return False
     steps = np.diff(mu[starts[1] : ends[-1] + 1])
     carried = mu[starts[1:]] - mu[ends[1:]]
     if float(np.sum(carried)) < FALL_SHARE * float(-np.sum(steps[steps < 0])):
         return False
     rate = steps / np.maximum(np.diff(travel[starts[1] : ends[-1] + 1]), 1e-300)
-    fast = rate > float(np.median(carried)) / (ABRUPTNESS * spacing)
+    fast = rate > float(np.median(carried)) / (ABRUPTNESS * period)
     return float(np.sum(steps[fast])) <= (1.0 - FALL_SHARE) * float(np.sum(steps[steps > 0]))
 
 
@@ -155,25 +156,25 @@ def find_stick_slip(prepared: list[RunData]) -> list[StickSlip]:
                 continue
             mu = run.mu[inside]
             starts, ends = falling_runs(mu)
-            big = mu[starts] - mu[ends] > DROP_NOISE * noise
-            starts, ends = starts[big], ends[big]
+            fall = mu[starts] - mu[ends]
+            big = fall > DROP_NOISE * noise
+            starts, ends, fall = starts[big], ends[big], fall[big]
             if starts.size < MIN_SAWTOOTH_DROPS:
                 continue
             travel = run.load_point_displacement[inside]
-            fall = mu[starts] - mu[ends]
+            period = float(np.median(np.diff(travel[ends])))
             peak = periodicity(travel, mu) if starts.size >= MIN_DROPS else 0.0
             regular = regularity(travel, fall, ends)
             sawtooth = (
                 regular <= REGULARITY
                 and np.min(fall[1:]) > SAWTOOTH_NOISE * noise
-                and is_sawtooth(travel, mu, starts, ends)
+                and is_sawtooth(travel, mu, starts, ends, period)
             )
             if peak >= MIN_PERIODICITY or sawtooth:
                 found.append(
                     StickSlip(
                         index, float(velocity), float(run.time[inside][starts[0]]),
-                        int(starts.size), float(np.median(fall)),
-                        float(np.median(np.diff(travel[ends]))), peak, regular,
+                        int(starts.size), float(np.median(fall)), period, peak, regular,
                     )
                 )  # fmt: skip
     return found
