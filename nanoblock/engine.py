@@ -10,6 +10,7 @@ from __future__ import annotations
 import sys
 import time as wallclock
 from collections.abc import Callable
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -256,7 +257,8 @@ def sample_times(scenario: Scenario) -> np.ndarray:
 class Run:
     """One simulation: the scenario, the kernel inputs and the evolving state."""
 
-    def __init__(self, scenario: Scenario) -> None:
+    def __init__(self, scenario: Scenario, times: np.ndarray | None = None) -> None:
+        """``times``: the sample times [s], increasing (default :func:`sample_times`)."""
         if scenario.run.seed is None:
             raise ScenarioError("run.seed must be resolved before a run (see resolve_seed)")
         self.scenario = scenario
@@ -264,7 +266,7 @@ class Run:
         self.strength = strength_classes(scenario)
         self.tables = hazard_tables(scenario)
         self.protocol = protocol_table(scenario)
-        self.times = sample_times(scenario)
+        self.times = sample_times(scenario) if times is None else np.asarray(times, dtype=float)
         self.state = initial_state(scenario, self.params, self.strength)
         self.scratch = np.zeros((3, scenario.interface.n_contacts))
         chains = scenario.interface.blocks_per_contact > 1 and self.params[0]["kappa"] != 0.0
@@ -515,6 +517,48 @@ def simulate(
     if all_snaps:
         result = xr.merge([result, _snapshot_dataset(all_snaps)], combine_attrs="override")
     return result
+
+
+def friction_at(
+    scenario: Scenario,
+    times: np.ndarray,
+    *,
+    seed: int | None = None,
+    threads: int | None = None,
+    progress: bool = False,
+) -> np.ndarray:
+    """The friction coefficient of ``scenario``'s run at ``times`` [s] (increasing), each a
+    balanced sample as :func:`simulate` stores it; nothing else is recorded (no Dataset,
+    store or progress bar), for callers that need the friction at given instants only.
+
+    The run is the one :func:`simulate` makes with ``times`` as its sample times: at its
+    own :func:`sample_times` it returns ``simulate(scenario)["friction_coefficient"]``
+    exactly; the same seed and times give the same values on any thread count.
+    ``threads``: Numba threads for the contact loop (default: the cores other processes
+    leave idle, :class:`~nanoblock.threads.ThreadBudget`; set per calling thread, so runs
+    on concurrent Python threads each take their own). ``progress`` prints
+    :data:`COMPILING` when the kernels are not in Numba's cache.
+    """
+    scenario = resolve_seed(scenario, seed)
+    check_feasible(scenario)
+    run = Run(scenario, times)
+    if progress and not cached(advance_to_sample, run.kernel_arguments(0.0)):
+        kind = "independent blocks" if run.coupled is None else "chains"
+        print(COMPILING.format(seconds=COMPILE_SECONDS[kind]), file=sys.stderr, flush=True)
+    force = np.empty(run.times.size)
+    before = numba.get_num_threads()
+    if threads is not None:
+        numba.set_num_threads(threads)
+    try:
+        with ThreadBudget() if threads is None else nullcontext() as budget:
+            for i, t in enumerate(run.times):
+                if budget is not None:
+                    budget.update()
+                advance_to_sample(*run.kernel_arguments(t))
+                force[i] = run.state.slider["force"][0]
+    finally:
+        numba.set_num_threads(before)
+    return force / scenario.interface.normal_force
 
 
 def _flush(run: Run, writer: RunStore, samples, snaps, fresh: bool, wall: float) -> None:

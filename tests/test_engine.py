@@ -7,6 +7,7 @@ import json
 import os
 import subprocess
 import sys
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
@@ -140,6 +141,28 @@ def test_a_run_stepped_outside_simulate_in_a_fresh_process_does_not_crash() -> N
     done = subprocess.run([sys.executable, "-c", code, root], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr[-2000:]
     assert float(done.stdout) == 0.0
+
+
+def test_friction_at_runs_the_trajectory_simulate_records() -> None:
+    """``friction_at`` at simulate's own sample times returns its friction exactly, on one
+    thread, on two, and with two runs at once on concurrent Python threads (the kernels
+    release the GIL; each contact draws from its own stream)."""
+    import numba
+
+    run = soft_protocol()
+    expected = simulate(run)["friction_coefficient"].values
+    times = engine.sample_times(run)
+    np.testing.assert_array_equal(engine.friction_at(run, times, threads=1), expected)
+    np.testing.assert_array_equal(engine.friction_at(run, times, threads=2), expected)
+    numba.get_num_threads()
+    if numba.threading_layer() == "workqueue":
+        pytest.skip("the workqueue threading layer cannot run parallel kernels concurrently")
+    with ThreadPoolExecutor(2) as pool:
+        other, same = pool.map(
+            lambda s: engine.friction_at(s, times, threads=1), [run.with_seed(99), run]
+        )
+    np.testing.assert_array_equal(same, expected)
+    assert not np.array_equal(other, expected)
 
 
 def test_different_seeds_differ() -> None:
