@@ -324,6 +324,24 @@ def test_simulation_check_switches_on_a_second_contact_population() -> None:
     assert check["extended"]["systematic"] < 0.8 * check["base"]["systematic"]
 
 
+def test_simulation_check_does_not_depend_on_how_many_runs_go_at_once() -> None:
+    """The check's runs (interfaces x seeds) one after another or two at once on
+    concurrent threads: the same trajectories, so the same misfits (60 contacts: the
+    determinism, not the statistics, is under test)."""
+    from nanoblock.diagnosis.simulation import simulation_check
+
+    data = _step_record()
+    base = {"mu0": 0.6, "a": 0.01, "b": 0.013, "dc": 2e-5, "v0": 1e-6, "stiffness": 2500.0}
+    fit = {**base, "b": 0.011, "b2": 0.002, "dc2": 1e-4}
+    checks = [
+        simulation_check(data, base, "two_state_variable", fit, n_contacts=60, workers=workers)
+        for workers in (1, 2)
+    ]
+    for name in ("base", "extended"):
+        assert checks[0][name] == checks[1][name]
+        assert checks[0][name]["simulation_noise"] > 0.0
+
+
 def test_an_extension_whose_fit_fails_is_reported_not_raised(monkeypatch) -> None:
     """A candidate whose integration cannot finish (LSODA's 'excess work' at its optimum,
     as on a hidden-matrix record) is listed as not testable with the error; one whose

@@ -24,7 +24,8 @@ rho~_max ~ 0.3 nm per event, so the run is simulated with every memory length, s
 distance and time multiplied by ``scale`` = SIMULATED_D0 / D0 and velocities unchanged
 (K/W divided by ``scale``, tau_m multiplied by it). The aging law is invariant under this
 map (theta' = 1 - V theta / D_c with theta, t, D_c all scaled), and the direct effect
-depends on V only. The simulated friction is compared with the data at the mapped times.
+depends on V only. The simulated friction is sampled at the data's own times, mapped
+(after the run-in), and compared there; nothing else is recorded.
 
 Run-in. The simulation starts from the steady state at the first velocity, each block's
 stress drawn from Q_st (001/Eq. 27) independently: the friction of N blocks is off by up
@@ -44,23 +45,32 @@ population, correlated over D0, ~6x the sample-scale noise of one run at 500 con
 The misfit is reported as the RMS difference and as its systematic part,
 sqrt(rms^2 - noise_data^2 - noise_simulation^2), the data's noise estimated by
 :func:`~nanoblock.diagnosis.statistics.noise_level`.
+
+Cost. A run's time goes almost all into the kernels' internal steps (one every rho~_max / 8
+of slip, ~40 us for 500 contacts), so it grows with the record's slip in memory lengths;
+the runs (interfaces x seeds) are independent and run at once on the idle cores
+(:func:`concurrent_runs`).
 """
 
 from __future__ import annotations
 
 import json
 import math
+import os
 import time
 from collections.abc import Callable, Mapping
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass
 from typing import Any
 
+import numba
 import numpy as np
 import xarray as xr
 from scipy.optimize import brentq
+from tqdm.auto import tqdm
 
 from nanoblock.diagnosis.statistics import noise_level
-from nanoblock.engine import contact_memory_lengths, simulate
+from nanoblock.engine import contact_memory_lengths, friction_at
 from nanoblock.params import Scenario, from_mapping
 from nanoblock.rsf.fit import (
     LOAD_EXPONENT,
@@ -335,6 +345,10 @@ def finished(scenario: Scenario, run: RunData) -> tuple[Scenario, float]:
     return from_mapping(data), run_in
 
 
+NAMES = ("base", "extended")
+"""The interfaces the check compares."""
+
+
 @dataclass(frozen=True)
 class Interfaces:
     """The calibrated interfaces of one run: scenario, scale and run-in time [s] each."""
@@ -405,26 +419,71 @@ def calibrated_scenarios(
     return built.scenarios, note
 
 
-def _misfit(
-    simulated: list[xr.Dataset], run: RunData, scale: float, run_in: float, data_noise: float
-) -> dict:
-    """RMS of the seeds' mean simulation minus the data at the mapped times (levels
-    matched), the noise of that mean from the seeds' spread, and the systematic part."""
-    runs = []
-    for seeded in simulated:
-        mu = np.interp(
-            (run.time - run.time[0]) * scale + run_in,
-            seeded["time"].values,
-            seeded["friction_coefficient"].values,
-        )
-        runs.append(mu - mu.mean())
-    seeds = np.array(runs)
+def record_times(run: RunData, scale: float, run_in: float) -> FloatArray:
+    """The record's sample times on the simulation's clock [s]: scaled, after the run-in."""
+    return (run.time - run.time[0]) * scale + run_in
+
+
+def _misfit(simulated: list[FloatArray], run: RunData, data_noise: float) -> dict:
+    """RMS of the seeds' mean simulated friction (at the record's own times) minus the data
+    (levels matched), the noise of that mean from the seeds' spread, and the systematic
+    part."""
+    seeds = np.array([mu - mu.mean() for mu in simulated])
     difference = seeds.mean(axis=0) - (run.mu - run.mu.mean())
     rms = float(np.sqrt(np.mean(difference**2)))
-    spread = float(np.mean(np.var(seeds, axis=0, ddof=1))) if len(runs) > 1 else 0.0
-    simulation_noise = math.sqrt(spread / len(runs))
+    spread = float(np.mean(np.var(seeds, axis=0, ddof=1))) if len(seeds) > 1 else 0.0
+    simulation_noise = math.sqrt(spread / len(seeds))
     systematic = math.sqrt(max(rms**2 - data_noise**2 - simulation_noise**2, 0.0))
     return {"rms": rms, "systematic": systematic, "simulation_noise": simulation_noise}
+
+
+def concurrent_runs(jobs: int, workers: int | None = None) -> int:
+    """How many of ``jobs`` simulations run at once: ``workers``, by default one per core
+    this process may use, at most NUMBA_NUM_THREADS (NUMBA_NUM_THREADS=1 runs them one
+    after another); 1 where Numba's threading layer cannot launch parallel kernels from
+    two threads at once (workqueue aborts the process)."""
+    numba.get_num_threads()  # launches the threading layer, which can then be named
+    if numba.threading_layer() == "workqueue":
+        return 1
+    if workers is None:
+        affinity = getattr(os, "sched_getaffinity", None)
+        cores = len(affinity(0)) if affinity is not None else os.cpu_count() or 1
+        workers = min(cores, numba.config.NUMBA_NUM_THREADS)
+    return max(1, min(jobs, workers))
+
+
+def _work(scenario: Scenario) -> float:
+    """Expected depinnings per block of a run: load-point travel / rho~_max."""
+    travel = sum(step.load_velocity * step.length for step in scenario.loading.steps)
+    return travel / scenario.joint.rho_max
+
+
+def _frictions(
+    jobs: list[tuple[Scenario, FloatArray]], workers: int, progress: bool
+) -> list[FloatArray]:
+    """Each job's friction at its (scenario, times): one after another with the contact
+    loop on the idle cores, or ``workers`` runs at once on one Numba thread each, longest
+    first (the kernels release the GIL; each run has its own random streams, so the
+    values do not depend on which thread or how many run it)."""
+    bar = tqdm(total=len(jobs), desc="simulation check", disable=not progress, leave=False)
+
+    def one(k: int, threads: int | None) -> FloatArray:
+        scenario, times = jobs[k]
+        order = np.argsort(times, kind="stable")
+        friction = np.empty(times.size)
+        friction[order] = friction_at(
+            scenario, times[order], threads=threads, progress=progress and k == 0
+        )
+        bar.update()
+        return friction
+
+    with bar:
+        if workers == 1:
+            return [one(k, None) for k in range(len(jobs))]
+        longest_first = sorted(range(len(jobs)), key=lambda k: -_work(jobs[k][0]))
+        with ThreadPoolExecutor(workers) as pool:
+            futures = {k: pool.submit(one, k, 1) for k in longest_first}
+            return [futures[k].result() for k in range(len(jobs))]
 
 
 def _pooled(parts: list[dict], sizes: list[int]) -> dict[str, float]:
@@ -445,11 +504,13 @@ def simulation_check(
     seed: int = 0,
     seeds: int = SEEDS,
     progress: bool = False,
+    workers: int | None = None,
 ) -> dict[str, Any]:
     """Simulate the data's protocol with the base interface and with ``extension``
     switched on, each with ``seeds`` seeds from ``seed``; the misfit of each against the
     data (``status`` ``"ran"``, with the wall ``seconds`` the simulations took) or why the
-    check cannot run (``"not_run"``).
+    check cannot run (``"not_run"``). ``workers``: simulations run at once (default
+    :func:`concurrent_runs`); the result does not depend on it.
 
     The interfaces are built by the mapping (:class:`Targets`, :func:`finished`); the
     friction level is matched to each run by the mean difference, so the misfit measures
@@ -470,36 +531,48 @@ def simulation_check(
     temperature = float(data.attrs.get("temperature", ROOM_TEMPERATURE))
     stiffness = float(base_params[STIFFNESS])
     noise = noise_level([r.mu for r in prepared])
-    misfits: dict[str, list[dict]] = {"base": [], "extended": []}
     started = time.perf_counter()
+    built: list[Interfaces] = []
     try:
         for run, per_run in zip(prepared, stiffness_scales(data, prepared), strict=True):
-            built = _interfaces(
+            interfaces = _interfaces(
                 run, stiffness * per_run, temperature, base_params, extension,
                 extension_params, reference_force, n_contacts=n_contacts, seed=seed,
             )  # fmt: skip
-            for name, scenario in built.scenarios.items():
-                simulated = [
-                    simulate(_with(scenario, "run", {"seed": seed + i}), progress=progress)
-                    for i in range(seeds)
-                ]
-                misfits[name].append(
-                    _misfit(simulated, run, built.scales[name], built.run_in[name], noise)
-                )
+            built.append(interfaces)
     except CalibrationError as error:
         return {"status": "not_run", "reason": str(error)}
+    keys = [(r, name, i) for r in range(len(built)) for name in NAMES for i in range(seeds)]
+    jobs = [
+        (
+            _with(built[r].scenarios[name], "run", {"seed": seed + i}),
+            record_times(prepared[r], built[r].scales[name], built[r].run_in[name]),
+        )
+        for r, name, i in keys
+    ]
+    frictions = dict(
+        zip(keys, _frictions(jobs, concurrent_runs(len(jobs), workers), progress), strict=True)
+    )
+    misfits = {
+        name: [
+            _misfit([frictions[r, name, i] for i in range(seeds)], run, noise)
+            for r, run in enumerate(prepared)
+        ]
+        for name in NAMES
+    }
     sizes = [r.mu.size for r in prepared]
     base_misfit = _pooled(misfits["base"], sizes)
     extended_misfit = _pooled(misfits["extended"], sizes)
     fall = 1.0 - extended_misfit["systematic"] ** 2 / max(base_misfit["systematic"] ** 2, 1e-300)
-    scale, scales = built.scales["base"], built.scales["extended"]
+    last = built[-1]
+    scale, scales = last.scales["base"], last.scales["extended"]
     return {
         "status": "ran",
         "extension": extension,
         "n_contacts": n_contacts,
         "seeds": seeds,
-        "scale": dict(built.scales),
-        "run_in": dict(built.run_in),
+        "scale": dict(last.scales),
+        "run_in": dict(last.run_in),
         "targets": {
             "base": asdict(Targets.from_fit(base_params)),
             "extended": asdict(Targets.from_fit(extension_params)),
@@ -515,5 +588,5 @@ def simulation_check(
             f"{extended_misfit['systematic']:.3g} with {extension} switched on "
             f"({100 * fall:.0f} % of its variance removed)"
         ),
-        "scenario_extended": built.scenarios["extended"].resolved_json(),
+        "scenario_extended": last.scenarios["extended"].resolved_json(),
     }
