@@ -24,8 +24,8 @@ rho~_max ~ 0.3 nm per event, so the run is simulated with every memory length, s
 distance and time multiplied by ``scale`` = SIMULATED_D0 / D0 and velocities unchanged
 (K/W divided by ``scale``, tau_m multiplied by it). The aging law is invariant under this
 map (theta' = 1 - V theta / D_c with theta, t, D_c all scaled), and the direct effect
-depends on V only. The simulated friction is sampled at the data's own times, mapped
-(after the run-in), and compared there; nothing else is recorded.
+depends on V only. The simulated friction is compared with the data at the mapped times
+(interpolated between its samples, every median data interval).
 
 Run-in. The simulation starts from the steady state at the first velocity, each block's
 stress drawn from Q_st (001/Eq. 27) independently: the friction of N blocks is off by up
@@ -46,10 +46,11 @@ The misfit is reported as the RMS difference and as its systematic part,
 sqrt(rms^2 - noise_data^2 - noise_simulation^2), the data's noise estimated by
 :func:`~nanoblock.diagnosis.statistics.noise_level`.
 
-Cost. A run's time goes almost all into the kernels' internal steps (one every rho~_max / 8
-of slip, ~40 us for 500 contacts), so it grows with the record's slip in memory lengths;
-the runs (interfaces x seeds) are independent and run at once on the idle cores
-(:func:`concurrent_runs`).
+Cost. A run's time goes almost all (> 95 %) into the kernels' internal steps, one every
+rho~_max / 8 of slip at ~40 us for 500 contacts, so it grows with the record's slip in
+memory lengths; only the friction is kept from each run
+(:func:`~nanoblock.engine.friction_at`), and the runs (interfaces x seeds) are independent
+and go at once on the idle cores (:func:`concurrent_runs`).
 """
 
 from __future__ import annotations
@@ -70,7 +71,7 @@ from scipy.optimize import brentq
 from tqdm.auto import tqdm
 
 from nanoblock.diagnosis.statistics import noise_level
-from nanoblock.engine import contact_memory_lengths, friction_at
+from nanoblock.engine import contact_memory_lengths, friction_at, sample_times
 from nanoblock.params import Scenario, from_mapping
 from nanoblock.rsf.fit import (
     LOAD_EXPONENT,
@@ -425,7 +426,7 @@ def record_times(run: RunData, scale: float, run_in: float) -> FloatArray:
 
 
 def _misfit(simulated: list[FloatArray], run: RunData, data_noise: float) -> dict:
-    """RMS of the seeds' mean simulated friction (at the record's own times) minus the data
+    """RMS of the seeds' mean simulated friction (at the record's times) minus the data
     (levels matched), the noise of that mean from the seeds' spread, and the systematic
     part."""
     seeds = np.array([mu - mu.mean() for mu in simulated])
@@ -461,21 +462,20 @@ def _work(scenario: Scenario) -> float:
 def _frictions(
     jobs: list[tuple[Scenario, FloatArray]], workers: int, progress: bool
 ) -> list[FloatArray]:
-    """Each job's friction at its (scenario, times): one after another with the contact
-    loop on the idle cores, or ``workers`` runs at once on one Numba thread each, longest
-    first (the kernels release the GIL; each run has its own random streams, so the
-    values do not depend on which thread or how many run it)."""
+    """Each job's friction at the record's times: its scenario run (samples every
+    ``run.record_every``, as :func:`~nanoblock.engine.simulate` stores them) and
+    interpolated. One run after another with the contact loop on the idle cores, or
+    ``workers`` runs at once on one Numba thread each, longest first (the kernels release
+    the GIL; each run has its own random streams, so the values do not depend on which
+    thread or how many run it)."""
     bar = tqdm(total=len(jobs), desc="simulation check", disable=not progress, leave=False)
 
     def one(k: int, threads: int | None) -> FloatArray:
         scenario, times = jobs[k]
-        order = np.argsort(times, kind="stable")
-        friction = np.empty(times.size)
-        friction[order] = friction_at(
-            scenario, times[order], threads=threads, progress=progress and k == 0
-        )
+        grid = sample_times(scenario)
+        friction = friction_at(scenario, grid, threads=threads, progress=progress and k == 0)
         bar.update()
-        return friction
+        return np.interp(times, grid, friction)
 
     with bar:
         if workers == 1:
