@@ -139,15 +139,25 @@ def _summary(diagnosis: Diagnosis) -> str:
         event = diagnosis.stick_slip[0]
         critical = (base["b"] - base["a"]) / base["dc"] if "dc" in base else math.nan
         stiffness = base.get("stiffness", math.nan)
+        if critical > 0.0:
+            stability = (
+                f"Its stiffness K/W = {stiffness:.3g} 1/m against the critical "
+                f"(b - a)/D_c = {critical:.3g} 1/m of the fit (001/Eqs. 9-11) places the "
+                f"slider {'below' if stiffness < critical else 'near or above'} the "
+                "stability boundary."
+            )
+        else:
+            stability = (
+                f"That mean fit is velocity-strengthening (b - a = {base['b'] - base['a']:.2g}), "
+                "so it cannot judge the slider's stability (001/Eqs. 9-11): the drops "
+                "themselves are the evidence of instability."
+            )
         return (
             f"The record is not steady sliding: at {event.load_point_velocity * 1e6:.3g} um/s "
             f"friction is a regular stick-slip sawtooth ({event.drops} drops of about "
             f"{event.median_drop:.2g} every {event.period * 1e6:.2g} um of load-point travel). "
             "No smooth rate-and-state law can fit it, so the base fit there is only a mean "
-            f"curve. Its stiffness K/W = {stiffness:.3g} 1/m against the critical "
-            f"(b - a)/D_c = {critical:.3g} 1/m of the fit (001/Eqs. 9-11) places the slider "
-            + ("below" if stiffness < critical else "near or above")
-            + " the stability boundary."
+            "curve. " + stability
         )
     if cause in ("none", "unexplained"):
         text = {
