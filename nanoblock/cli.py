@@ -465,7 +465,7 @@ def fit(
     data: Annotated[Path, typer.Argument(help="measured data: CSV, netCDF or zarr")],
     law: Annotated[
         str,
-        typer.Option(help="RSF law (aging, slip, aging2, slip2, cutoff, saturation, tabor, ...)"),
+        typer.Option(help="RSF law (aging, slip, aging2, slip2, renewal, cutoff, saturation, ...)"),
     ] = "aging",
     out: Annotated[Path, typer.Option("--out", "-o", help="output directory")] = Path("fit"),
     stiffness: Annotated[

@@ -290,3 +290,23 @@ def test_readme_quick_start_times_are_those_the_benchmark_wrote() -> None:
     quoted = [int(n) for n in re.findall(r"(\d+) s\b", section)]
     expected = [results["cold"]["wall"], results["compile"], results["warm"]["wall"]]
     assert quoted == [round(value) for value in expected]
+
+
+def test_fitting_guide_renewal_numbers_are_those_the_benchmark_wrote() -> None:
+    """The fitting guide's aging-closure paragraph quotes the largest RMS reductions of
+    `renewal` and `aging2` over `aging`, and the range of D / D_c, that
+    ``benchmarks/bench_renewal_lab.py`` wrote to results_renewal_lab.json."""
+    results = json.loads((ROOT / "benchmarks" / "results_renewal_lab.json").read_text())
+    fits = {(f["record"], f["law"]): f for f in results["fits"]}
+    records = sorted({record for record, _ in fits})
+
+    def gain(record: str, name: str) -> float:
+        return 1.0 - fits[record, name]["rms"] / fits[record, "aging"]["rms"]
+
+    ratios = [fits[r, "renewal"]["dc"] / fits[r, "aging"]["dc"] for r in records]
+    text = " ".join((ROOT / "docs" / "guide" / "fitting.md").read_text().split())
+    paragraph = text.split("**Aging law or renewal population on laboratory gouge.**")[1]
+    paragraph = paragraph.split("**")[0] if "**" in paragraph else paragraph[:1500]
+    assert f"by 0-{round(100 * max(gain(r, 'renewal') for r in records))} %" in paragraph
+    assert f"by up to {round(100 * max(gain(r, 'aging2') for r in records))} %" in paragraph
+    assert f"{min(ratios):.1f}-{max(ratios):.1f} times" in paragraph

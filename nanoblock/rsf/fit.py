@@ -46,8 +46,9 @@ COHESION = "cohesion_ratio"
 load adds c / sigma to mu, so the friction level of runs at several loads W goes as
 mu0 + (c / sigma_ref) (W_ref / W - 1) (Amontons' load-independent mu0 at c = 0)."""
 INITIAL_OFFSET = "initial_state_offset"
-"""Prefix of the fitted initial-state offsets ln(theta(0) / theta_ss), one per run
-(``initial_state_offset_0``, ...): a record that does not start in steady sliding."""
+"""Prefix of the fitted initial-state offsets, one per run (``initial_state_offset_0``,
+...): the record starts in the state of steady sliding at V(0) e^(-offset), not at V(0),
+so that offset = ln(theta(0) / theta_ss(V(0))) for the aging law."""
 INITIAL_VELOCITY = "initial_velocity_offset"
 """Prefix of the fitted initial slip-velocity offsets ln(v(0) / V_L(0)), one per run: a
 record cut out after a change of drive starts with the slider still at its old pace."""
@@ -354,6 +355,14 @@ def _initial_params(lw: Law, guess: Mapping[str, float], v0: float) -> dict[str,
     mu0, a, b, dc = guess["mu0"], guess["a"], guess["b"], guess["dc"]
     if lw.name in ("aging", "slip"):
         return {"mu0": mu0, "a": a, "b": b, "dc": dc, "v0": v0}
+    if lw.name.startswith("renewal"):  # the aging law's D_c is about half the slip D
+        base = {"mu0": mu0, "a": a, "b": b, "dc": 2.0 * dc, "v0": v0}
+        extra = {
+            "renewal_cutoff": {"v_theta": v0},
+            "renewal_saturation": {"tau_m": 2.0 * dc / v0},
+            "renewal2": {"b2": 0.25 * abs(b), "dc2": 20.0 * dc},
+        }
+        return {**base, **extra.get(lw.name, {})}
     if lw.name in ("aging2", "slip2"):  # a second, longer memory carrying part of b
         base = {"mu0": mu0, "a": a, "b": b, "dc": dc}
         return {**base, "b2": 0.25 * abs(b), "dc2": 10.0 * dc, "v0": v0}
@@ -565,8 +574,6 @@ def _time_series_setup(
     paces = [f"{INITIAL_VELOCITY}_{i}" for i in range(len(prepared))]
     scales = stiffness_scales(data, prepared)
     if options.initial_state:
-        if not lw.state_names[0].startswith("ln_"):
-            raise ValueError(f"law {lw.name!r}: a fitted initial state needs an ln(theta) state")
         free_names.extend([*offsets, *paces])
         for name in (*offsets, *paces):
             params.setdefault(name, 0.0)
@@ -597,9 +604,9 @@ def _time_series_setup(
         law_params = _law_params(lw, values, run.normal_force, w_ref)
         stiffness = values[STIFFNESS] * scales[index]
         start, pace = None, None
-        if offset in values:  # ln theta_i(0) = ln theta_ss(V(0)) + offset
-            steady = lw.steady_state(run.history.velocities[0], lw.pack(law_params))
-            start = tuple(float(s) + values[offset] for s in steady)
+        if offset in values:  # the steady state at V(0) e^-offset
+            velocity = run.history.velocities[0] * math.exp(-values[offset])
+            start = tuple(float(s) for s in lw.steady_state(velocity, lw.pack(law_params)))
         if paces[index] in values:  # ln v(0) = ln V_L(0) + offset
             pace = float(run.history.velocities[0]) * math.exp(values[paces[index]])
         key = (twins[index], tuple(sorted(law_params.items())), stiffness, start, pace, rtol)
@@ -853,9 +860,10 @@ def fit_rsf(
     apparatus (use the ``silicon`` or ``two_state`` law). ``load_exponent`` fits
     D_c (W / W_ref)^n across runs at several normal forces (time series and clamped
     samples). ``fit_stiffness`` fits K/W of a time series even when the metadata state it
-    (starting there); ``initial_state`` fits the offsets ln(theta(0) / theta_ss(V(0)))
-    and ln(v(0) / V(0)) of every run (``initial_state_offset_<run>``,
-    ``initial_velocity_offset_<run>``) for records that do not start in steady sliding;
+    (starting there); ``initial_state`` fits the offsets (:data:`INITIAL_OFFSET`: the
+    state of steady sliding at V(0) e^-offset) and ln(v(0) / V(0)) of every run
+    (``initial_state_offset_<run>``, ``initial_velocity_offset_<run>``) for records
+    that do not start in steady sliding;
     ``cohesion`` fits :data:`COHESION`, a friction level falling with the load across runs.
     ``free`` overrides the free parameters; ``initial`` the starting values (and
     fixes any law parameter that is not free). ``holdout`` (one boolean array per run,

@@ -6,6 +6,8 @@ quantity and mu depends linearly on w:
 
 * ``aging``, ``slip`` and ``tabor`` use w = ln(v / v0) and s = ln(theta) (theta > 0);
   ``aging2`` and ``slip2`` (two state variables) use s = (ln theta_1, ln theta_2);
+* ``renewal`` (the mean-field renewal population itself) uses w = ln(v / v0) and the
+  Laplace transforms s_j = <exp(-sigma_j age)> of the contacts' age distribution;
 * ``silicon`` and ``two_state`` (000's laws, zero static threshold) use
   w = ln(1 + v / v*) and s = theta (theta >= 0, and v > -v* allows tiny back-creep).
 
@@ -18,13 +20,17 @@ in m/s, lengths in m, times in s; friction and state parts are dimensionless.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 FloatArray = NDArray[np.float64]
+QuasiStatic = tuple[
+    Callable[[float, FloatArray, float], FloatArray],
+    Callable[[float, FloatArray, float], FloatArray],
+]
 
 __all__ = ["LAWS", "Law", "Parameter", "law"]
 
@@ -121,6 +127,12 @@ class Law:
     def state_rate(self, v: float, s: Sequence[float], p: Sequence[float]) -> tuple[float, ...]:
         """ds/dt [1/s] at slip velocity v."""
         raise NotImplementedError
+
+    def quasi_static_system(self, p: Sequence[float], stiffness: float) -> QuasiStatic | None:
+        """(rhs, Jacobian) of the quasi-static spring-slider in y = (w, s, slip), with
+        ``odeint``'s signature f(t, y, V_L): for laws whose many state coordinates make
+        the generic scalar right-hand side slow; None (the default) uses the generic one."""
+        return None
 
     # --- vectorised ----------------------------------------------------------------
     def velocities(self, w: ArrayLike, p: Sequence[float]) -> FloatArray:
@@ -309,6 +321,132 @@ class TwoStateSlipLaw(TwoStateAgingLaw):
         return tuple(-(v / dc) * (math.log(v / dc) + si) for dc, si in ((p[3], s[0]), (p[5], s[1])))
 
 
+RENEWAL_STEP = 1.0
+"""Spacing of the renewal law's quadrature nodes in ln sigma (trapezoid rule)."""
+RENEWAL_NODES = np.exp(np.arange(-20.0, 16.0 + 1e-9, RENEWAL_STEP))
+"""Laplace variables sigma_j of the renewal law [v0 / D]: the quadrature of <ln age> and
+of <ln(1 + age / tau_m)> is exact to 1e-4 (up to a constant) for exponential age
+distributions of mean 1e-3 to 1e4 D / v0 (tested in ``tests/test_rsf_laws.py``)."""
+_REFERENCE = 1.0 / (1.0 + RENEWAL_NODES)
+"""E_j in steady sliding at v0."""
+_ONES = np.ones(RENEWAL_NODES.size)
+
+
+@dataclass(frozen=True)
+class RenewalLaw(_LogVelocityLaw):
+    """The mean-field renewal population without the aging law's closure (001/Eqs. 3, 5).
+
+    Contacts are born in proportion to slip and die after exponentially distributed slip
+    of mean D (001/Eq. 3); a contact of age u carries log area ln(1 + u / tau_m)
+    (001/Eq. 5), so mu = mu0 + a ln(v/v0) + b (<ln(1 + u/tau_m)> - its steady value at
+    v0). The aging law replaces <ln u> by ln <u> (its theta is the mean age); here the mean
+    of the logarithm is kept, by Frullani's integral ln(1 + u/tau) = int (1 - e^(-sigma
+    u)) e^(-sigma tau) d sigma / sigma on the nodes :data:`RENEWAL_NODES`, with the state
+    E_j = <exp(-sigma_j u)>, which obeys the linear law E_j' = -sigma_j (v0/D) r(v) E_j +
+    (v/D)(1 - E_j): every age grows at the clock rate r (1, or v / (v + v_theta) with the
+    state cutoff of 000/Eq. 7), and a share v dt / D is reborn at age 0. Steady sliding
+    has the aging law's mu_ss(v); transients relax with a fitted aging-law b of ~0.86 b
+    and D_c of ~0.5 D. Parameters (mu0, a, b, dc = D, [extra], v0), ``extra`` naming the
+    variant: ``"cutoff"`` (v_theta), ``"saturation"`` (a free tau_m; otherwise
+    tau_m << D / v), ``"second"`` (b2, dc2: a second, longer memory by the aging law).
+    """
+
+    extra: str = ""
+
+    def _ages(self, v: float, p: Sequence[float]) -> tuple[FloatArray, FloatArray]:
+        """(weights e^(-sigma_j tau_m) of the nodes, ageing rates sigma_j (v0/D) r(v) [1/s])."""
+        weights, rate = _ONES, p[-1] / p[3]
+        if self.extra == "saturation":
+            weights = np.exp(-RENEWAL_NODES * (p[4] * p[-1] / p[3]))
+        elif self.extra == "cutoff":
+            rate *= v / (v + p[4]) if v > 0.0 else 0.0
+        return weights, RENEWAL_NODES * rate
+
+    def friction(self, w, s, p):
+        weights, _ = self._ages(0.0, p)
+        e = np.asarray(s[: RENEWAL_NODES.size], dtype=float)
+        mu = p[0] + p[1] * w + p[2] * RENEWAL_STEP * float(weights @ (_REFERENCE - e))
+        if self.extra == "second":
+            mu += p[4] * (s[-1] + math.log(p[-1] / p[5]))
+        return mu
+
+    def gradient(self, w, s, p):
+        weights, _ = self._ages(0.0, p)
+        slopes = tuple((-p[2] * RENEWAL_STEP * weights).tolist())
+        return p[1], slopes + ((p[4],) if self.extra == "second" else ())
+
+    def state_rate(self, v, s, p):
+        _, ageing = self._ages(v, p)
+        birth = v / p[3]
+        e = np.asarray(s[: RENEWAL_NODES.size], dtype=float)
+        rates = tuple((birth - (ageing + birth) * e).tolist())
+        if self.extra == "second":
+            rates += (math.exp(-s[-1]) - v / p[5],)
+        return rates
+
+    def steady_state(self, v, p):
+        v = np.asarray(v, dtype=float)
+        clock = v / (v + p[4]) if self.extra == "cutoff" else 1.0
+        state = tuple(v / (v + sigma * p[-1] * clock) for sigma in RENEWAL_NODES)
+        if self.extra == "second":
+            state += (np.log(p[5] / v),)
+        return state
+
+    def quasi_static_system(self, p, stiffness):
+        """Vectorised: w' = (K (V_L - v) + b h sum_j c_j E_j' - b2 s2') / a, E_j' as in the
+        class docstring (s2' by the aging law), and the exact Jacobian."""
+        a, memory, v0, n = p[1], p[3], p[-1], RENEWAL_NODES.size
+        weights, _ = self._ages(0.0, p)
+        weights = p[2] * RENEWAL_STEP / a * weights
+        second = self.extra == "second"
+        size = n + 2 + second
+        nodes = np.arange(1, n + 1)
+
+        def rhs(t: float, y: FloatArray, drive: float) -> FloatArray:
+            v = v0 * math.exp(y[0])
+            _, ageing = self._ages(v, p)
+            birth = v / memory
+            out = np.empty(size)
+            rates = birth - (ageing + birth) * y[1 : n + 1]
+            out[1 : n + 1] = rates
+            out[0] = stiffness * (drive - v) / a + weights @ rates
+            if second:
+                out[n + 1] = math.exp(-y[n + 1]) - v / p[5]
+                out[0] -= p[4] / a * out[n + 1]
+            out[-1] = v
+            return out
+
+        def jacobian(t: float, y: FloatArray, drive: float) -> FloatArray:
+            v = v0 * math.exp(y[0])
+            _, ageing = self._ages(v, p)
+            birth = v / memory
+            e = y[1 : n + 1]
+            by_w = birth * (1.0 - e)
+            if self.extra == "cutoff":  # d r / d w = r (1 - r)
+                by_w -= ageing * (p[4] / (v + p[4])) * e
+            decay = ageing + birth
+            out = np.zeros((size, size))
+            out[0, 0] = -stiffness * v / a + weights @ by_w
+            out[0, 1 : n + 1] = -weights * decay
+            out[nodes, 0] = by_w
+            out[nodes, nodes] = -decay
+            if second:
+                out[n + 1, 0] = -v / p[5]
+                out[n + 1, n + 1] = -math.exp(-y[n + 1])
+                out[0, 0] += p[4] / a * v / p[5]
+                out[0, n + 1] = p[4] / a * math.exp(-y[n + 1])
+            out[-1, 0] = v
+            return out
+
+        return rhs, jacobian
+
+    def contract(self, params, velocity):
+        contract = super().contract(params, velocity)
+        if self.extra == "second":
+            contract["b"] = params["b"] + params["b2"]
+        return contract
+
+
 @dataclass(frozen=True)
 class SiliconLaw(Law):
     """000's silicon-on-steel law (000/Eqs. 1, 7, 14c-d): zero static threshold.
@@ -383,15 +521,12 @@ _SILICON_PARAMETERS = (
     Parameter("theta_star", "1", "state scale theta*", log_scale=True),
     _V_THETA,
 )
-_TWO_STATE_PARAMETERS = (
-    _MU0,
-    _A,
-    _B,
-    _DC,
-    Parameter("b2", "1", "second evolution-effect coefficient B2", positive=False),
-    Parameter("dc2", "m", "second (long) memory length Dc2", log_scale=True),
-    _V0,
-)
+_D2_B = Parameter("b2", "1", "second evolution-effect coefficient B2", positive=False)
+_D2 = Parameter("dc2", "m", "second (long) memory length Dc2", log_scale=True)
+_TWO_STATE_PARAMETERS = (_MU0, _A, _B, _DC, _D2_B, _D2, _V0)
+_D = Parameter("dc", "m", "mean renewal slip D of a contact", log_scale=True)
+_TAU_M = Parameter("tau_m", "s", "creep onset time tau_m", log_scale=True)
+_RENEWAL_STATE = tuple(f"e{j:02d}" for j in range(RENEWAL_NODES.size))
 _V_STAR = Parameter("v_star", "m/s", "velocity scale v* (held fixed)", log_scale=True)
 
 LAWS: dict[str, Law] = {
@@ -427,6 +562,37 @@ LAWS: dict[str, Law] = {
             ("mu0", "a", "b", "dc", "b2", "dc2"),
             exchangeable=(("b", "b2"), ("dc", "dc2")),
         ),
+        RenewalLaw(
+            "renewal",
+            "the contacts' renewal population (001/Eqs. 3, 5) without the aging closure",
+            (_MU0, _A, _B, _D, _V0),
+            _RENEWAL_STATE,
+            ("mu0", "a", "b", "dc"),
+        ),
+        RenewalLaw(
+            "renewal_cutoff",
+            "renewal population ageing on 000/Eq. 7's clock v / (v + v_theta)",
+            (_MU0, _A, _B, _D, _V_THETA, _V0),
+            _RENEWAL_STATE,
+            ("mu0", "a", "b", "dc", "v_theta"),
+            extra="cutoff",
+        ),
+        RenewalLaw(
+            "renewal_saturation",
+            "renewal population with a finite creep onset time tau_m (001/Eqs. 5, 8)",
+            (_MU0, _A, _B, _D, _TAU_M, _V0),
+            _RENEWAL_STATE,
+            ("mu0", "a", "b", "dc", "tau_m"),
+            extra="saturation",
+        ),
+        RenewalLaw(
+            "renewal2",
+            "renewal population with a second, longer memory Dc2 (aging law)",
+            (*_TWO_STATE_PARAMETERS[:4], _D2_B, _D2, _V0),
+            (*_RENEWAL_STATE, "ln_theta2"),
+            ("mu0", "a", "b", "dc", "b2", "dc2"),
+            extra="second",
+        ),
         CutoffLaw(
             "cutoff",
             "aging law with 000/Eq. 7's state cutoff velocity v_theta",
@@ -442,7 +608,7 @@ LAWS: dict[str, Law] = {
                 _A,
                 _B,
                 _DC,
-                Parameter("tau_m", "s", "creep onset time tau_m", log_scale=True),
+                _TAU_M,
                 _V0,
             ),
             ("ln_theta",),

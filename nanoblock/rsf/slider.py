@@ -281,6 +281,7 @@ def solve_slider(
     if len(state0) != len(law.state_names):
         raise ValueError(f"law {law.name!r} has {len(law.state_names)} state coordinate(s)")
 
+    jacobian = None
     if controlled:
         rhs = _velocity_controlled_rhs(law, p)
         y = np.array([*state0, 0.0])
@@ -289,7 +290,8 @@ def solve_slider(
         w0 = law.coordinate(v_start, p)
         y = np.array([law.friction(w0, state0, p), w0, *state0, 0.0])
     else:
-        rhs = _quasi_static_rhs(law, p, stiffness)
+        system = law.quasi_static_system(p, stiffness)
+        rhs, jacobian = system or (_quasi_static_rhs(law, p, stiffness), None)
         y = np.array([law.coordinate(v_start, p), *state0, 0.0])
 
     rows = np.empty((times.size, y.size))
@@ -308,8 +310,8 @@ def solve_slider(
                 with warnings.catch_warnings():  # failure is reported below, with context
                     warnings.simplefilter("ignore", ODEintWarning)
                     solution, info = odeint(
-                        rhs, y, grid, args=(float(drive),), tfirst=True, rtol=rtol, atol=atol,
-                        mxstep=max_steps, full_output=True,
+                        rhs, y, grid, args=(float(drive),), Dfun=jacobian, tfirst=True,
+                        rtol=rtol, atol=atol, mxstep=max_steps, full_output=True,
                     )  # fmt: skip
                 message = info["message"]
             except OverflowError as error:
