@@ -353,30 +353,32 @@ class RenewalLaw(_LogVelocityLaw):
 
     extra: str = ""
 
-    def _ages(self, v: float, p: Sequence[float]) -> tuple[FloatArray, FloatArray]:
-        """(weights e^(-sigma_j tau_m) of the nodes, ageing rates sigma_j (v0/D) r(v) [1/s])."""
-        weights, rate = _ONES, p[-1] / p[3]
+    def _weights(self, p: Sequence[float]) -> FloatArray:
+        """The nodes' weights e^(-sigma_j tau_m) (1 with tau_m << D / v)."""
         if self.extra == "saturation":
-            weights = np.exp(-RENEWAL_NODES * (p[4] * p[-1] / p[3]))
-        elif self.extra == "cutoff":
+            return np.exp(-RENEWAL_NODES * (p[4] * p[-1] / p[3]))
+        return _ONES
+
+    def _ageing(self, v: float, p: Sequence[float]) -> FloatArray:
+        """The nodes' ageing rates sigma_j (v0 / D) r(v) [1/s]."""
+        rate = p[-1] / p[3]
+        if self.extra == "cutoff":
             rate *= v / (v + p[4]) if v > 0.0 else 0.0
-        return weights, RENEWAL_NODES * rate
+        return RENEWAL_NODES * rate
 
     def friction(self, w, s, p):
-        weights, _ = self._ages(0.0, p)
         e = np.asarray(s[: RENEWAL_NODES.size], dtype=float)
-        mu = p[0] + p[1] * w + p[2] * RENEWAL_STEP * float(weights @ (_REFERENCE - e))
+        mu = p[0] + p[1] * w + p[2] * RENEWAL_STEP * float(self._weights(p) @ (_REFERENCE - e))
         if self.extra == "second":
             mu += p[4] * (s[-1] + math.log(p[-1] / p[5]))
         return mu
 
     def gradient(self, w, s, p):
-        weights, _ = self._ages(0.0, p)
-        slopes = tuple((-p[2] * RENEWAL_STEP * weights).tolist())
+        slopes = tuple((-p[2] * RENEWAL_STEP * self._weights(p)).tolist())
         return p[1], slopes + ((p[4],) if self.extra == "second" else ())
 
     def state_rate(self, v, s, p):
-        _, ageing = self._ages(v, p)
+        ageing = self._ageing(v, p)
         birth = v / p[3]
         e = np.asarray(s[: RENEWAL_NODES.size], dtype=float)
         rates = tuple((birth - (ageing + birth) * e).tolist())
@@ -396,15 +398,14 @@ class RenewalLaw(_LogVelocityLaw):
         """Vectorised: w' = (K (V_L - v) + b h sum_j c_j E_j' - b2 s2') / a, E_j' as in the
         class docstring (s2' by the aging law), and the exact Jacobian."""
         a, memory, v0, n = p[1], p[3], p[-1], RENEWAL_NODES.size
-        weights, _ = self._ages(0.0, p)
-        weights = p[2] * RENEWAL_STEP / a * weights
+        weights = p[2] * RENEWAL_STEP / a * self._weights(p)
         second = self.extra == "second"
         size = n + 2 + second
         nodes = np.arange(1, n + 1)
 
         def rhs(t: float, y: FloatArray, drive: float) -> FloatArray:
             v = v0 * math.exp(y[0])
-            _, ageing = self._ages(v, p)
+            ageing = self._ageing(v, p)
             birth = v / memory
             out = np.empty(size)
             rates = birth - (ageing + birth) * y[1 : n + 1]
@@ -418,7 +419,7 @@ class RenewalLaw(_LogVelocityLaw):
 
         def jacobian(t: float, y: FloatArray, drive: float) -> FloatArray:
             v = v0 * math.exp(y[0])
-            _, ageing = self._ages(v, p)
+            ageing = self._ageing(v, p)
             birth = v / memory
             e = y[1 : n + 1]
             by_w = birth * (1.0 - e)
