@@ -294,7 +294,8 @@ def test_readme_quick_start_times_are_those_the_benchmark_wrote() -> None:
 
 def test_fitting_guide_renewal_numbers_are_those_the_benchmark_wrote() -> None:
     """The fitting guide's aging-closure paragraph quotes the largest RMS reductions of
-    `renewal` and `aging2` over `aging`, and the range of D / D_c, that
+    `renewal` and `aging2` over `aging`, the range of D / D_c and the fits' CPU seconds
+    (also the cost ratio the law table and the README quote) that
     ``benchmarks/bench_renewal_lab.py`` wrote to results_renewal_lab.json."""
     results = json.loads((ROOT / "benchmarks" / "results_renewal_lab.json").read_text())
     fits = {(f["record"], f["law"]): f for f in results["fits"]}
@@ -310,3 +311,14 @@ def test_fitting_guide_renewal_numbers_are_those_the_benchmark_wrote() -> None:
     assert f"by 0-{round(100 * max(gain(r, 'renewal') for r in records))} %" in paragraph
     assert f"by up to {round(100 * max(gain(r, 'aging2') for r in records))} %" in paragraph
     assert f"{min(ratios):.1f}-{max(ratios):.1f} times" in paragraph
+    seconds = {
+        name: [fits[r, name]["cpu_seconds"] for r in records] for name in ("renewal", "aging")
+    }
+    quoted = [f"{min(seconds[name]):.1f}-{max(seconds[name]):.1f}" for name in seconds]
+    assert "costs {} CPU seconds against {} for the aging law".format(*quoted) in paragraph
+    costs = [r / g for r, g in zip(seconds["renewal"], seconds["aging"], strict=True)]
+    ratio = f"{round(min(costs))}-{round(max(costs))}x the"
+    assert f"{ratio} aging law's cost" in " ".join(
+        (ROOT / "docs" / "guide" / "fitting.md").read_text().split()
+    )
+    assert f"{ratio} cost" in " ".join((ROOT / "README.md").read_text().split())

@@ -395,49 +395,29 @@ class RenewalLaw(_LogVelocityLaw):
         return state
 
     def quasi_static_system(self, p, stiffness):
-        """Vectorised: w' = (K (V_L - v) + b h sum_j c_j E_j' - b2 s2') / a, E_j' as in the
-        class docstring (s2' by the aging law), and the exact Jacobian."""
-        a, memory, v0, n = p[1], p[3], p[-1], RENEWAL_NODES.size
-        weights = p[2] * RENEWAL_STEP / a * self._weights(p)
+        """w' = (K (V_L - v) + b h sum_j c_j E_j' - b2 s2') / a with E_j' as in the class
+        docstring (s2' by the aging law) and its exact Jacobian, compiled
+        (:mod:`nanoblock.kernels.renewal`)."""
+        from nanoblock.kernels.renewal import renewal_slider_jacobian, renewal_slider_rate
+
         second = self.extra == "second"
-        size = n + 2 + second
-        nodes = np.arange(1, n + 1)
+        constants = (
+            RENEWAL_NODES,
+            p[2] * RENEWAL_STEP / p[1] * self._weights(p),
+            float(p[1]),
+            float(p[3]),
+            float(p[-1]),
+            float(stiffness),
+            float(p[4]) if self.extra == "cutoff" else 0.0,
+            float(p[4]) if second else 0.0,
+            float(p[5]) if second else 1.0,
+        )
 
         def rhs(t: float, y: FloatArray, drive: float) -> FloatArray:
-            v = v0 * math.exp(y[0])
-            ageing = self._ageing(v, p)
-            birth = v / memory
-            out = np.empty(size)
-            rates = birth - (ageing + birth) * y[1 : n + 1]
-            out[1 : n + 1] = rates
-            out[0] = stiffness * (drive - v) / a + weights @ rates
-            if second:
-                out[n + 1] = math.exp(-y[n + 1]) - v / p[5]
-                out[0] -= p[4] / a * out[n + 1]
-            out[-1] = v
-            return out
+            return renewal_slider_rate(y, drive, *constants)
 
         def jacobian(t: float, y: FloatArray, drive: float) -> FloatArray:
-            v = v0 * math.exp(y[0])
-            ageing = self._ageing(v, p)
-            birth = v / memory
-            e = y[1 : n + 1]
-            by_w = birth * (1.0 - e)
-            if self.extra == "cutoff":  # d r / d w = r (1 - r)
-                by_w -= ageing * (p[4] / (v + p[4])) * e
-            decay = ageing + birth
-            out = np.zeros((size, size))
-            out[0, 0] = -stiffness * v / a + weights @ by_w
-            out[0, 1 : n + 1] = -weights * decay
-            out[nodes, 0] = by_w
-            out[nodes, nodes] = -decay
-            if second:
-                out[n + 1, 0] = -v / p[5]
-                out[n + 1, n + 1] = -math.exp(-y[n + 1])
-                out[0, 0] += p[4] / a * v / p[5]
-                out[0, n + 1] = p[4] / a * math.exp(-y[n + 1])
-            out[-1, 0] = v
-            return out
+            return renewal_slider_jacobian(y, drive, *constants)
 
         return rhs, jacobian
 
