@@ -254,7 +254,7 @@ def test_renewal_jacobian_is_the_derivative_of_its_right_hand_side(name: str) ->
         up, down = y.copy(), y.copy()
         up[k] += h
         down[k] -= h
-        numeric[:, k] = (rhs(0.0, up, 1e-6) - rhs(0.0, down, 1e-6)) / (2.0 * h)
+        numeric[:, k] = (rhs(0.0, up, 1e-6).copy() - rhs(0.0, down, 1e-6)) / (2.0 * h)
     exact = jacobian(0.0, y, 1e-6)
     assert np.abs(exact - numeric).max() < 1e-6 * np.abs(exact).max()
     generic = np.array(_quasi_static_rhs(lw, p, 300.0)(0.0, y, 1e-6))

@@ -8,9 +8,10 @@ trapezoid step and e^(-sigma_j tau_m)):
     E_j' = v / D - (sigma_j (v0 / D) r(v) + v / D) E_j,   r = v / (v + v_theta) or 1,
     w'   = K (V_L - v) / a + sum_j h_j E_j' - (b2 / a) s2',  s2' = e^(-s2) - v / Dc2.
 
-Called by LSODA thousands of times per fit: compiled, each call is ~0.8 us against ~4 us
-for the NumPy expression of the same sums (``tests/test_rsf_laws.py`` checks both against
-the generic right-hand side built from the law's ``state_rate`` and ``gradient``).
+LSODA calls them thousands of times per fit, so they write into the caller's buffers and
+allocate nothing (``benchmarks/bench_renewal_lab.py`` times the fits;
+``tests/test_rsf_laws.py`` checks them against the generic right-hand side built from the
+law's ``state_rate`` and ``gradient``, and the Jacobian against its central differences).
 """
 
 from __future__ import annotations
@@ -22,28 +23,24 @@ import numpy as np
 from ._jit import kernel
 
 
-@kernel
+@kernel(nrt=False)
 def renewal_slider_rate(
     y: np.ndarray,
     drive: float,
     nodes: np.ndarray,
     weights: np.ndarray,
-    a: float,
-    memory: float,
-    v0: float,
-    stiffness: float,
-    v_theta: float,
-    b2: float,
-    dc2: float,
-) -> np.ndarray:
-    """dy/dt [1/s] at drive V_L [m/s]; ``v_theta`` 0 for no cutoff, ``b2`` and ``dc2``
-    read only when y holds the second memory (``y.size == nodes.size + 3``)."""
+    constants: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """dy/dt [1/s] at drive V_L [m/s] into ``out``; ``constants`` = (a, D [m], v0 [m/s],
+    K/W [1/m], v_theta [m/s] or 0 for no cutoff, b2, Dc2 [m]), b2 and Dc2 read only when
+    y holds the second memory (``y.size == nodes.size + 3``)."""
+    a, memory, v0, stiffness, v_theta, b2, dc2 = constants
     n = nodes.size
     v = v0 * math.exp(y[0])
     birth = v / memory
     clock = v / (v + v_theta) if v_theta > 0.0 else 1.0
     ageing = clock * v0 / memory
-    out = np.empty(y.size)
     total = 0.0
     for j in range(n):
         rate = birth - (nodes[j] * ageing + birth) * y[1 + j]
@@ -55,24 +52,20 @@ def renewal_slider_rate(
         out[n + 1] = second
         out[0] -= b2 / a * second
     out[y.size - 1] = v
-    return out
 
 
-@kernel
+@kernel(nrt=False)
 def renewal_slider_jacobian(
     y: np.ndarray,
     drive: float,
     nodes: np.ndarray,
     weights: np.ndarray,
-    a: float,
-    memory: float,
-    v0: float,
-    stiffness: float,
-    v_theta: float,
-    b2: float,
-    dc2: float,
-) -> np.ndarray:
-    """d(dy/dt)/dy of :func:`renewal_slider_rate` (dr/dw = r (1 - r) with the cutoff)."""
+    constants: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """d(dy/dt)/dy of :func:`renewal_slider_rate` into ``out`` (dr/dw = r (1 - r) with the
+    cutoff)."""
+    a, memory, v0, stiffness, v_theta, b2, dc2 = constants
     n = nodes.size
     size = y.size
     v = v0 * math.exp(y[0])
@@ -80,7 +73,7 @@ def renewal_slider_jacobian(
     clock = v / (v + v_theta) if v_theta > 0.0 else 1.0
     ageing = clock * v0 / memory
     slope = 1.0 - clock if v_theta > 0.0 else 0.0
-    out = np.zeros((size, size))
+    out[:, :] = 0.0
     corner = -stiffness * v / a
     for j in range(n):
         e = y[1 + j]
@@ -97,4 +90,3 @@ def renewal_slider_jacobian(
         out[0, n + 1] = b2 / a * math.exp(-y[n + 1])
     out[0, 0] = corner
     out[size - 1, 0] = v
-    return out

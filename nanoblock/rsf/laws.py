@@ -131,7 +131,9 @@ class Law:
     def quasi_static_system(self, p: Sequence[float], stiffness: float) -> QuasiStatic | None:
         """(rhs, Jacobian) of the quasi-static spring-slider in y = (w, s, slip), with
         ``odeint``'s signature f(t, y, V_L): for laws whose many state coordinates make
-        the generic scalar right-hand side slow; None (the default) uses the generic one."""
+        the generic scalar right-hand side slow; None (the default) uses the generic one.
+        Each function may return its own buffer, overwritten by its next call (``odeint``
+        copies every result)."""
         return None
 
     # --- vectorised ----------------------------------------------------------------
@@ -401,23 +403,23 @@ class RenewalLaw(_LogVelocityLaw):
         from nanoblock.kernels.renewal import renewal_slider_jacobian, renewal_slider_rate
 
         second = self.extra == "second"
-        constants = (
-            RENEWAL_NODES,
-            p[2] * RENEWAL_STEP / p[1] * self._weights(p),
-            float(p[1]),
-            float(p[3]),
-            float(p[-1]),
-            float(stiffness),
-            float(p[4]) if self.extra == "cutoff" else 0.0,
-            float(p[4]) if second else 0.0,
-            float(p[5]) if second else 1.0,
-        )
+        nodes, weights = RENEWAL_NODES, p[2] * RENEWAL_STEP / p[1] * self._weights(p)
+        constants = np.array([
+            p[1], p[3], p[-1], stiffness,
+            p[4] if self.extra == "cutoff" else 0.0,
+            p[4] if second else 0.0,
+            p[5] if second else 1.0,
+        ])  # fmt: skip
+        size = nodes.size + 2 + second
+        rate, matrix = np.empty(size), np.empty((size, size))  # odeint copies each result
 
         def rhs(t: float, y: FloatArray, drive: float) -> FloatArray:
-            return renewal_slider_rate(y, drive, *constants)
+            renewal_slider_rate(y, drive, nodes, weights, constants, rate)
+            return rate
 
         def jacobian(t: float, y: FloatArray, drive: float) -> FloatArray:
-            return renewal_slider_jacobian(y, drive, *constants)
+            renewal_slider_jacobian(y, drive, nodes, weights, constants, matrix)
+            return matrix
 
         return rhs, jacobian
 
