@@ -180,6 +180,30 @@ def test_fitted_b_is_linear_in_aging_m(ageing_fits, renewal_bias) -> None:
     assert np.all(np.abs(ratio - predicted) < z_bound(3) * RATIO_SEED_SD)
 
 
+RENEWAL_SEED_SD = {"dc": 0.11, "b": 0.024}
+"""Seed-to-seed sd of the renewal law's D / D0 and B / (m sigma_s/p) at D0 = 0.1 um, seeds
+0-5 (2026-11-26): D / D0 = 0.905, 0.969, 0.754, 1.001, 1.093, 0.974 and B / (m sigma_s/p)
+= 0.981, 1.023, 1.038, 1.000, 1.010, 0.976."""
+
+
+def test_the_renewal_law_reads_the_interface_s_own_memory_length_and_ageing() -> None:
+    """The renewal law (the contacts' population without the aging law's closure) fitted to
+    the step pair at D0 = 0.05, 0.1, 0.2 um: its renewal slip D is D0 and its B is
+    m sigma_s/p (001/Eqs. 3, 5, 16), with no closure bias (the aging law's are 0.494 and
+    0.858): the diagnosis maps a renewal fit to the simulator with D0 = D
+    (``nanoblock.diagnosis.simulation.memory_length``). Bounds: z_bound(2) seed sds of the
+    mean of the three runs (0.23 on D / D0, 0.05 on B); power ~1 against the aging law's
+    biases, 0.3 against D / D0 = 0.8."""
+    base = _interface_base(step_pair(D0), PAIR_SAMPLING)
+    fits = measure_steps(base, "interface.memory_length", [0.5 * D0, D0, 2 * D0], "renewal")
+    memory = fits.dc.values / fits["interface.memory_length"].values
+    ageing = fits.b.values / fits.b_theory.values
+    print(f"D / D0 = {np.round(memory, 3)}, B / (m sigma_s/p) = {np.round(ageing, 3)}")
+    bound = z_bound(2) / math.sqrt(memory.size)
+    assert abs(memory.mean() - 1.0) < bound * RENEWAL_SEED_SD["dc"]
+    assert abs(ageing.mean() - 1.0) < bound * RENEWAL_SEED_SD["b"]
+
+
 def spike_run(memory_length: float, contacts: int = 4000) -> xr.Dataset:
     """1 -> 10 um/s at K/W = 1e8 1/m (001/Eq. 13 ratio ~2400 at D0 = 0.1 um): the spike."""
     steps = [

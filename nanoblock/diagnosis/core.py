@@ -521,5 +521,6 @@ def _simulate(
         base.fit.params,
         None if other is None else other.id,
         {} if other is None else other.fit.params,
+        laws=(base.fit.law, (base if other is None else other).fit.law),
         progress=progress,
     )

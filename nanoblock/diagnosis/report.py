@@ -279,9 +279,11 @@ def write_scenarios(diagnosis: Diagnosis, data: xr.Dataset, out: Path) -> dict[s
     with the cause (or the best extension), so ``nanoblock run`` reproduces the simulation
     check and a user can continue from it."""
     other = diagnosis.extended or diagnosis.best
+    base = diagnosis.base.fit
     scenarios, note = calibrated_scenarios(
-        data, diagnosis.base.fit.params,
+        data, base.params,
         None if other is None else other.id, {} if other is None else other.fit.params,
+        laws=(base.law, (diagnosis.base if other is None else other).fit.law),
     )  # fmt: skip
     written = {}
     for name, scenario in scenarios.items():

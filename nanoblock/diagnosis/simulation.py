@@ -9,8 +9,9 @@ at the data's temperature with its threshold sigma_a chosen so that the exact lo
 d ln sigma_s / d ln V at the log-centre sqrt(V_min V_max) of the record's sliding
 velocities equals a / mu0 (A = alpha mu0; the slope falls with V, so this matches the
 secant over a step, which the RSF a measures, to second order in ln(V_max / V_min)); the
-memory length D0 = D_c / DC_PER_D0 (the renewal model's fitted D_c is half of D0:
-``tests/test_coarse_acceptance.py``, Dc/D0 = 0.47-0.52). The steady friction of that
+memory length D0 = D_c / DC_PER_D0 for the aging family (the renewal model's fitted D_c
+is half of D0: ``tests/test_coarse_acceptance.py``, Dc/D0 = 0.47-0.52), D0 = D itself
+for the renewal laws, whose ``dc`` is the contacts' mean renewal slip. The steady friction of that
 interface is (sigma_s / p)(1 + m S), S = <ln(1 + phi / tau_m)> over its contacts
 (001/Eq. 5, :func:`~nanoblock.theory.mapping.steady_log_area`), its direct effect alpha
 times that level and its state effect m sigma_s / p: so the hardness and the ageing are
@@ -82,11 +83,26 @@ from nanoblock.rsf.fit import (
     reference_load,
     stiffness_scales,
 )
+from nanoblock.rsf.laws import RenewalLaw, law
 from nanoblock.theory.mapping import steady_log_area
 from nanoblock.theory.meanfield import MeanFieldJoint, log_slope, steady_stress
 
 DC_PER_D0 = 0.5
 """Fitted aging-law D_c per memory length D0 of the renewal model (measured)."""
+
+
+AGING_FAMILY = ("aging", "aging")
+"""``laws`` of fits by the aging law and its extensions (one memory convention)."""
+
+
+def memory_length(law_name: str, dc: float) -> float:
+    """The renewal model's memory length D0 [m] that a fit of law ``law_name`` with memory
+    length ``dc`` [m] stands for: ``dc`` itself for a renewal law (its mean renewal slip
+    D), ``dc / DC_PER_D0`` for the aging family (and any second memory, which follows the
+    aging law in both families)."""
+    return dc if isinstance(law(law_name), RenewalLaw) else dc / DC_PER_D0
+
+
 SIMULATED_D0 = 3e-8
 """Memory length of the simulated interface [m]: ~110 rho~_max per renewal (D_c stays
 linear in D0 down to 0.05 um and below, ``tests/test_coarse_acceptance.py``)."""
@@ -177,8 +193,9 @@ class Targets:
     memory_length: float
 
     @classmethod
-    def from_fit(cls, params: Mapping[str, float]) -> Targets:
-        """The mapping's first guess from a base aging-law fit (D0 = D_c / DC_PER_D0)."""
+    def from_fit(cls, params: Mapping[str, float], law_name: str) -> Targets:
+        """The mapping's first guess from a fit of law ``law_name`` (D0 by
+        :func:`memory_length`)."""
         mu0, a, b, dc = (float(params[key]) for key in ("mu0", "a", "b", "dc"))
         if not (mu0 > 0.0 and a > 0.0):
             raise CalibrationError(
@@ -189,7 +206,7 @@ class Targets:
                 f"the base fit has b = {b:.3g} < 0: contact ageing (m >= 0, 001/Eq. 5) "
                 "cannot make it"
             )
-        return cls(mu0, a / mu0, b / mu0, dc / DC_PER_D0)
+        return cls(mu0, a / mu0, b / mu0, memory_length(law_name, dc))
 
 
 def base_scenario(
@@ -266,11 +283,10 @@ def _load_memory(
 
 
 def _two_state(scenario: Scenario, params: Mapping[str, float], scale: float, _) -> Scenario:
-    """A second contact population with D0_2 / D0 = D_c2 / D_c holding the share
-    f = b2 / (b + b2) of the state effect B = b + b2 of all contacts (aging_m = B / mu0
-    until :func:`finished` sets the level)."""
+    """A second contact population of memory length D0_2 = D_c2 / DC_PER_D0 (scaled)
+    holding the share f = b2 / (b + b2) of the state effect B = b + b2 of all contacts
+    (aging_m = B / mu0 until :func:`finished` sets the level)."""
     mu0, b, b2 = (float(params[key]) for key in ("mu0", "b", "b2"))
-    ratio = float(params["dc2"]) / float(params["dc"])
     n_contacts = scenario.interface.n_contacts
     share = b2 / (b + b2) if b > 0.0 and b2 > 0.0 else 0.0
     if not 1 <= round(share * n_contacts) <= n_contacts - 1:
@@ -284,7 +300,7 @@ def _two_state(scenario: Scenario, params: Mapping[str, float], scale: float, _)
         "interface",
         {
             "aging_m": (b + b2) / mu0,
-            "second_memory_length": scenario.interface.memory_length * ratio,
+            "second_memory_length": float(params["dc2"]) / DC_PER_D0 * scale,
             "second_population": share,
         },
     )
@@ -367,17 +383,18 @@ def _interfaces(
     extension: str | None,
     extension_params: Mapping[str, float],
     reference_force: float,
+    laws: tuple[str, str],
     **options: int,
 ) -> Interfaces:
     """``base`` and, where the extension has a simulator option, ``extended`` on ``run``
-    (``stiffness``: the base K/W of this run [1/m]; ``options``: n_contacts, seed)."""
-    built = {
-        "base": base_scenario(Targets.from_fit(base_params), run, stiffness, temperature, **options)
-    }
+    (``stiffness``: the base K/W of this run [1/m]; ``laws``: of the base and extension
+    fits; ``options``: n_contacts, seed)."""
+    base = Targets.from_fit(base_params, laws[0])
+    built = {"base": base_scenario(base, run, stiffness, temperature, **options)}
     if extension in SWITCHES:
         fitted = float(extension_params.get(STIFFNESS, base_params[STIFFNESS]))
         plain, scale = base_scenario(
-            Targets.from_fit(extension_params), run,
+            Targets.from_fit(extension_params, laws[1]), run,
             stiffness * fitted / float(base_params[STIFFNESS]), temperature, **options,
         )  # fmt: skip
         switched = SWITCHES[extension](plain, extension_params, scale, reference_force)
@@ -394,10 +411,13 @@ def calibrated_scenarios(
     base_params: Mapping[str, float],
     extension: str | None,
     extension_params: Mapping[str, float],
+    *,
+    laws: tuple[str, str] = AGING_FAMILY,
 ) -> tuple[dict[str, Scenario], str]:
     """The calibrated nanoblock interfaces of the first run, as ``nanoblock run`` takes
     them: ``base`` and, where the extension has a simulator option, ``extended``; and a
-    note on the scaling and run-in (or why one is missing)."""
+    note on the scaling and run-in (or why one is missing). ``laws``: of the base and
+    extension fits, as :func:`simulation_check` takes them."""
     if data.attrs.get("kind") != "time_series":
         return {}, f"{data.attrs.get('kind')} data have no runnable spring-slider scenario"
     run = prepare_runs(data)[0]
@@ -406,7 +426,7 @@ def calibrated_scenarios(
     reference = reference_load([run.normal_force], False)
     try:
         built = _interfaces(
-            run, stiffness, temperature, base_params, extension, extension_params, reference
+            run, stiffness, temperature, base_params, extension, extension_params, reference, laws
         )
     except CalibrationError as error:
         return {}, str(error)
@@ -500,6 +520,7 @@ def simulation_check(
     extension: str | None,
     extension_params: Mapping[str, float],
     *,
+    laws: tuple[str, str] = AGING_FAMILY,
     n_contacts: int = N_CONTACTS,
     seed: int = 0,
     seeds: int = SEEDS,
@@ -507,10 +528,12 @@ def simulation_check(
     workers: int | None = None,
 ) -> dict[str, Any]:
     """Simulate the data's protocol with the base interface and with ``extension``
-    switched on, each with ``seeds`` seeds from ``seed``; the misfit of each against the
-    data (``status`` ``"ran"``, with the wall ``seconds`` the simulations took) or why the
-    check cannot run (``"not_run"``). ``workers``: simulations run at once (default
-    :func:`concurrent_runs`); the result does not depend on it.
+    switched on, each with ``seeds`` seeds from ``seed``; ``laws``: the RSF laws of the
+    base and extension fits (their memory lengths map to D0 by :func:`memory_length`).
+    The misfit of each against the data (``status`` ``"ran"``, with the wall ``seconds``
+    the simulations took) or why the check cannot run (``"not_run"``). ``workers``:
+    simulations run at once (default :func:`concurrent_runs`); the result does not depend
+    on it.
 
     The interfaces are built by the mapping (:class:`Targets`, :func:`finished`); the
     friction level is matched to each run by the mean difference, so the misfit measures
@@ -537,7 +560,7 @@ def simulation_check(
         for run, per_run in zip(prepared, stiffness_scales(data, prepared), strict=True):
             interfaces = _interfaces(
                 run, stiffness * per_run, temperature, base_params, extension,
-                extension_params, reference_force, n_contacts=n_contacts, seed=seed,
+                extension_params, reference_force, laws, n_contacts=n_contacts, seed=seed,
             )  # fmt: skip
             built.append(interfaces)
     except CalibrationError as error:
@@ -574,8 +597,8 @@ def simulation_check(
         "scale": dict(last.scales),
         "run_in": dict(last.run_in),
         "targets": {
-            "base": asdict(Targets.from_fit(base_params)),
-            "extended": asdict(Targets.from_fit(extension_params)),
+            "base": asdict(Targets.from_fit(base_params, laws[0])),
+            "extended": asdict(Targets.from_fit(extension_params, laws[1])),
         },
         "base": base_misfit,
         "extended": extended_misfit,

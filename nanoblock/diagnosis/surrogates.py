@@ -42,6 +42,8 @@ class Fit:
     model: list[FloatArray]
     start: dict[str, float]
     """Parameters to warm-start a refit from."""
+    law: str = ""
+    """The RSF law fitted (empty for a steady-state table)."""
 
 
 def _clean(values: Mapping[str, float | None]) -> dict[str, float]:
@@ -138,7 +140,7 @@ class Measurement:
         summary = result.to_json()
         return Fit(
             _clean(summary["params"]), _clean(summary["stderr"]), len(result.free),
-            result.model, dict(result.params),
+            result.model, dict(result.params), result.law,
         )  # fmt: skip
 
 
