@@ -158,6 +158,34 @@ def test_resolution_noise_equals_white_noise_and_sees_coloured_noise() -> None:
     assert effective_size(1000, 0.9) == pytest.approx(1000 * 0.1 / 1.9)
 
 
+def test_resolution_noise_of_steady_stretches_shorter_than_its_window() -> None:
+    """Stretches of 30 samples (under the 50-sample window, as the steady stretches of a
+    short record are), taken about their own means: white noise gives sigma within 3
+    Monte Carlo errors; AR(1) noise (phi = 0.7) is still seen as coloured, its floor the
+    exact AR(1) variance about a 30-sample mean over 1 - 1/30 (0.927 of its sd) within 3
+    Monte Carlo errors (1.08 / sqrt(n_eff), n_eff = n (1 - phi) / (1 + phi)), where the
+    sample-scale estimate gives 0.48 (no stretch used: the floor fell back to it before)."""
+    rng = np.random.default_rng(6)
+    n, phi = 30_000, 0.7
+    white = np.split(rng.standard_normal(n), n // 30)
+    assert abs(resolution_noise(white) - 1.0) < 3.0 * 1.08 / math.sqrt(n) * 2.0
+    shocks = rng.standard_normal(n) * math.sqrt(1.0 - phi * phi)
+    ar = np.empty(n)
+    ar[0] = rng.standard_normal()
+    for i in range(1, n):
+        ar[i] = phi * ar[i - 1] + shocks[i]
+    pieces = np.split(ar, n // 30)
+    floor = resolution_noise(pieces)
+    w = 30
+    kept = (
+        1.0 - (1.0 + phi) / ((1.0 - phi) * w) + 2.0 * phi * (1.0 - phi**w) / ((1.0 - phi) * w) ** 2
+    )
+    expected = math.sqrt(kept / (1.0 - 1.0 / w))
+    print(f"floor {floor:.3f} (AR(1): {expected:.3f}), white {noise_level(pieces):.3f}")
+    assert abs(floor - expected) < 3.0 * 1.08 / math.sqrt(n * (1.0 - phi) / (1.0 + phi))
+    assert floor > 1.5 * noise_level(pieces)
+
+
 def test_forecast_mask_holds_out_the_second_half_of_later_segments() -> None:
     time = np.linspace(0.0, 30.0, 301)
     velocity = np.where(time < 10.0, 1e-6, np.where(time < 20.0, 1e-5, 1e-6))

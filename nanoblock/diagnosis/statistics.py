@@ -45,16 +45,21 @@ def resolution_noise(residuals: Sequence[FloatArray], width: int = RESOLUTION_SA
     """Noise at the model's resolution: the scatter of residuals about their own centred
     running mean over ``width`` samples, which keeps every fluctuation shorter than the
     window (coloured noise, sensor and servo wobble) and drops a misfit smooth on that
-    scale. Each deviation is divided by sqrt(1 - 1/width), its standard deviation for
-    white noise, and the spread is the MAD (robust to the few windows holding a step), so
-    the floor equals :func:`noise_level` on white noise. Units of the signal."""
-    kernel = np.full(width, 1.0 / width)
+    scale; a stretch no longer than the window (but at least ``width`` / 5) is taken
+    about its own mean. Each deviation is divided by sqrt(1 - 1/w), its standard
+    deviation for white noise about a mean of w samples, and the spread is the MAD (robust
+    to the few windows holding a step), so the floor equals :func:`noise_level` on white
+    noise. On AR(1) noise of lag-1 autocorrelation phi a window of w samples keeps about
+    1 - (1 + phi) / ((1 - phi) w) of its variance. Units of the signal; the sample-scale
+    :func:`noise_level` when every stretch is shorter than ``width`` / 5."""
     deviations = []
     for r in residuals:
         r = np.asarray(r, dtype=float)
         if r.size <= width:
+            if r.size >= max(width // 5, 2):
+                deviations.append((r - r.mean()) / math.sqrt(1.0 - 1.0 / r.size))
             continue
-        mean = np.convolve(r, kernel, mode="valid")
+        mean = np.convolve(r, np.full(width, 1.0 / width), mode="valid")
         centre = r[width // 2 : width // 2 + mean.size]
         deviations.append((centre - mean) / math.sqrt(1.0 - 1.0 / width))
     if not deviations:
