@@ -2,9 +2,11 @@
 show, ``PER_EFFECT`` cases each, and effect-free cases, diagnosed on 2 processes
 (``tests/hidden_matrix.py``: cases, the expected-answer rule, rates and bounds).
 
-Run: ``python benchmarks/bench_hidden_effects.py [PER_EFFECT [NONE_PER_KIND [KIND ...]]]``
-(8, 8 and every kind by default). Writes ``benchmarks/results_hidden_effects.json`` (with
-KINDs: ``results_hidden_effects_<KIND>...json``) after every case, ``complete`` false
+Run: ``python benchmarks/bench_hidden_effects.py [PER_EFFECT [NONE_PER_KIND [KIND ...]]]
+[--closure=CLOSURE]`` (8, 8, every kind and the diagnosis's default closure ``aging`` by
+default; ``auto`` or ``renewal`` for the time-series base's other closures). Writes
+``benchmarks/results_hidden_effects.json`` (with KINDs: ``results_hidden_effects_<KIND>...
+json``, with another closure ``..._<CLOSURE>.json``) after every case, ``complete`` false
 until the matrix is done (a stopped run still leaves a stratified prefix), and prints the
 markdown confusion matrix. A case that raises is recorded with verdict ``error: ...`` (a
 wrong answer) instead of stopping the matrix.
@@ -38,9 +40,12 @@ from tests.hidden_matrix import (  # noqa: E402
 def main() -> None:
     per_effect = int(sys.argv[1]) if len(sys.argv) > 1 else 8
     none_per_kind = int(sys.argv[2]) if len(sys.argv) > 2 else per_effect
-    kinds = sys.argv[3:]
+    kinds = [arg for arg in sys.argv[3:] if not arg.startswith("--closure=")]
+    closures = [arg.removeprefix("--closure=") for arg in sys.argv[3:] if arg not in kinds]
+    closure = closures[-1] if closures else "aging"
     matrix = [case for case in cases(per_effect, none_per_kind) if case.kind in (kinds or KINDS)]
-    out = ROOT / "benchmarks" / "_".join(["results_hidden_effects", *kinds])
+    suffix = [] if closure == "aging" else [closure]
+    out = ROOT / "benchmarks" / "_".join(["results_hidden_effects", *kinds, *suffix])
     started = time.perf_counter()
     header = {
         "machine": platform.platform(),
@@ -51,11 +56,12 @@ def main() -> None:
         "per_effect": per_effect,
         "none_per_kind": none_per_kind,
         "visible_chi2": VISIBLE_CHI2,
+        "closure": closure,
         "planned_cases": len(matrix),
     }
     results = []
     with ProcessPoolExecutor(2) as pool:
-        futures = {pool.submit(run_case, case): case for case in matrix}
+        futures = {pool.submit(run_case, case, closure): case for case in matrix}
         for future in as_completed(futures):
             try:
                 result = future.result()

@@ -554,6 +554,14 @@ def diagnose(
     window: Annotated[str | None, WINDOW] = None,
     recipe: Annotated[Path | None, RECIPE] = None,
     rows: Annotated[str | None, ROWS] = None,
+    closure: Annotated[
+        str,
+        typer.Option(
+            help="time series: base law's closure of the contacts' renewal: aging, renewal "
+            "(the population without the aging closure, 2-5x the cost) or auto (the one "
+            "whose base fits better)"
+        ),
+    ] = "aging",
 ) -> None:
     """Diagnose what the base nanoblock model gets wrong on DATA, and why.
 
@@ -563,13 +571,17 @@ def diagnose(
     simulation_check), OUT/report.md, OUT/fits.png and OUT/residuals.png.
     """
     from nanoblock.diagnosis import DiagnosisError, diagnose, load_for_diagnosis
+    from nanoblock.diagnosis.core import check_closure
     from nanoblock.diagnosis.report import write_diagnosis
     from nanoblock.measured import DataError
 
     _output_directory(out, writes=DIAGNOSIS_FILES)
     with _bad_input(DiagnosisError, DataError, ValueError, RuntimeError):
+        check_closure(closure)
         measurement = _windowed(load_for_diagnosis(data, **_xlook(recipe, rows)), window)
-        result = diagnose(measurement, progress=progress, workers=workers, simulate=simulate)
+        result = diagnose(
+            measurement, progress=progress, workers=workers, simulate=simulate, closure=closure
+        )
     written = write_diagnosis(result, out, data.name, measurement)
     gain = result.gain()
     typer.echo(f"cause: {result.cause}")

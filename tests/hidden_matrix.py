@@ -4,7 +4,8 @@ bounds (``benchmarks/bench_hidden_effects.py`` runs it all; the suite a stratifi
 
 Expected answer: ``none`` for an effect-free case; ``unstable_sliding`` for the slider
 below its critical stiffness; otherwise the drawn effect when it is visible, else
-``none``. Visible means that the base model fitted to the *noiseless* data leaves
+``none``. Visible means that the base model (in the diagnosis's closure, ``closed_base``)
+fitted to the *noiseless* data leaves
 chi^2 >= :data:`VISIBLE_CHI2`, chi^2 = sum r^2 / (sigma^2 (1 + phi) / (1 - phi)) with
 sigma and phi the standard deviation and lag-1 autocorrelation of the noise actually
 added (so coloured noise counts its effective samples): an effect the base model absorbs
@@ -21,7 +22,7 @@ import numpy as np
 from scipy.stats import beta
 
 from nanoblock.diagnosis import diagnose
-from nanoblock.diagnosis.catalogue import BASE
+from nanoblock.diagnosis.core import closed_base
 from nanoblock.diagnosis.resample import resample_by_travel
 from nanoblock.diagnosis.surrogates import Measurement
 from tests.hidden_synthetic import EFFECTS, MAKERS
@@ -64,33 +65,35 @@ def _signal(data) -> np.ndarray:
     return data["s" if data.attrs["kind"] == "clamped_sample" else "mu"].values
 
 
-def base_chi2(data, clean) -> float:
-    """chi^2 of the base model fitted to the noiseless ``clean`` (see the module docstring)."""
+def base_chi2(data, clean, closure: str = "aging") -> float:
+    """chi^2 of the base model (in the diagnosis's ``closure``) fitted to the noiseless
+    ``clean`` (see the module docstring)."""
     noise = _signal(data) - _signal(clean)
     phi = float(np.corrcoef(noise[:-1], noise[1:])[0, 1])
     variance = np.var(noise) * (1.0 + phi) / (1.0 - phi)
     measurement = Measurement(resample_by_travel(clean))
-    fit = measurement.fit(BASE[measurement.kind])
+    _, fit = closed_base(measurement, closure)
     squares = sum(
         float(np.sum((m - y) ** 2)) for m, y in zip(fit.model, measurement.observed, strict=True)
     )
     return squares / variance
 
 
-def expected_answer(case: Case, data, clean) -> tuple[str, float | None]:
+def expected_answer(case: Case, data, clean, closure: str = "aging") -> tuple[str, float | None]:
     """(expected verdict, noiseless base chi^2 or None when the rule does not need it)."""
     if case.effect in ("none", "unstable_sliding"):
         return case.effect, None
-    chi2 = base_chi2(data, clean)
+    chi2 = base_chi2(data, clean, closure)
     return (case.effect if chi2 >= VISIBLE_CHI2 else "none"), chi2
 
 
-def run_case(case: Case) -> dict:
-    """Make the case, fix its expected answer, then diagnose it (CPU seconds recorded)."""
+def run_case(case: Case, closure: str = "aging") -> dict:
+    """Make the case, fix its expected answer, then diagnose it with the base law's
+    ``closure`` (CPU seconds recorded)."""
     started = time.process_time()
     data, clean = MAKERS[case.kind](case.effect, case.rng())
-    expected, chi2 = expected_answer(case, data, clean)
-    verdict = diagnose(data).cause
+    expected, chi2 = expected_answer(case, data, clean, closure)
+    verdict = diagnose(data, closure=closure).cause
     seconds = time.process_time() - started
     return {**asdict(case), "expected": expected, "chi2": chi2, "verdict": verdict,
             "cpu_seconds": seconds}  # fmt: skip

@@ -16,10 +16,14 @@ from typer.testing import CliRunner
 
 from nanoblock.cli import app
 from nanoblock.diagnosis import CATALOGUE, DiagnosisError, diagnose, load_for_diagnosis
+from nanoblock.diagnosis.core import closed_base
+from nanoblock.diagnosis.resample import resample_by_travel
 from nanoblock.diagnosis.statistics import blocked_folds, noise_level, runs_test, structure
+from nanoblock.diagnosis.surrogates import Measurement
 from nanoblock.diagnosis.validation import check_diagnosable
 from tests.diagnosis_synthetic import NOISE, clamped_case, steady_case, time_series_case
-from tests.hidden_matrix import cases, run_case
+from tests.hidden_matrix import Case, cases, run_case
+from tests.hidden_synthetic import MAKERS
 from tests.rsf_synthetic import record, write_csv
 from tests.tolerances import SIGNIFICANCE, max_misses
 
@@ -204,6 +208,21 @@ def test_effect_free_and_effect_time_series(effect: str) -> None:
     """One time series without and one with an effect (4-12 s each)."""
     rng = np.random.default_rng(8)
     assert diagnose(time_series_case(effect, rng, NOISE["time_series"])).cause == effect
+
+
+def test_auto_closure_takes_the_generators_own_population_average() -> None:
+    """``closure="auto"`` picks the renewal base for the independent cohort generator's
+    effect-free record (matrix case #0, AR(1) noise phi 0.69) and the aging base for the
+    aging-law generator's; on the cohort record the renewal closure finds nothing to
+    explain (``none``), while the aging closure's misfit of the generator's own relaxation
+    is taken for a cause (session 12's matrix: 7 of 8 effect-free records called
+    ``state_velocity_cutoff``)."""
+    cohorts, _ = MAKERS["time_series"]("none", Case("time_series", "none", 0).rng())
+    aging_law = time_series_case("none", np.random.default_rng(8), NOISE["time_series"])
+    assert closed_base(Measurement(resample_by_travel(cohorts)))[0] == "renewal"
+    assert closed_base(Measurement(resample_by_travel(aging_law)))[0] == "aging"
+    assert diagnose(cohorts, closure="auto").cause == "none"
+    assert diagnose(cohorts).cause != "none"
 
 
 def test_calibrated_threshold_inverts_the_exact_slope() -> None:

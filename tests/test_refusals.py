@@ -203,6 +203,7 @@ OPTIONS: list[tuple[list[str], list[str]]] = [
     (["fit", "{file}", "--law", "aging", "--stiffness", "x"], ["--stiffness"]),
     (["diagnose", "{file}", "--out", "{file}"], ["user.txt", "existing file"]),
     (["diagnose", "{file}", "--workers", "0"], ["--workers"]),
+    (["diagnose", "{file}", "--closure", "bogus"], ["--closure", "'bogus'", "auto"]),
     (["plot", "{tmp}"], ["not a nanoblock run store"]),
     (["plot", "{tmp}/missing.zarr"], ["missing.zarr", "does not exist"]),
     (["info", "{tmp}"], ["not a nanoblock run store"]),

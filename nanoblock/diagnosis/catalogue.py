@@ -10,7 +10,7 @@ reported as not testable on it, with the data that would be needed.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from nanoblock.diagnosis.steady import SteadyVariant
 
@@ -42,7 +42,31 @@ BASE: dict[str, Surrogate] = {
 }
 """The base model's surrogate per kind of data: the aging law that ageing and renewal of
 contacts map to (001/Eqs. 3, 16), 000's law in its apparatus (000/Eqs. 9-14), and the
-mean-field quadrature with logarithmic ageing for steady tables."""
+mean-field quadrature with logarithmic ageing for steady tables. On time series the
+aging law is one of two :data:`CLOSURES`."""
+
+CLOSURES: dict[str, dict[str, str]] = {
+    "aging": {},
+    "renewal": {
+        "aging": "renewal",
+        "cutoff": "renewal_cutoff",
+        "saturation": "renewal_saturation",
+        "aging2": "renewal2",
+    },
+}
+"""How a time-series surrogate closes the contacts' renewal population (001/Eqs. 3, 5),
+as law substitutions: the aging law writes b ln <age> (theta the mean age), the renewal
+laws keep b <ln age> (:class:`~nanoblock.rsf.laws.RenewalLaw`). Both have the same
+parameters and steady state and differ in transients by up to ~15 % of b; the diagnosis
+fits the base with each and takes the extensions in the closure whose base fits better
+(laws not listed, such as the slip law, are the same in both)."""
+
+
+def in_closure(surrogate: Surrogate, closure: str) -> Surrogate:
+    """``surrogate`` with its law in ``closure`` (a key of :data:`CLOSURES`)."""
+    if not isinstance(surrogate, RsfVariant):
+        return surrogate
+    return replace(surrogate, law=CLOSURES[closure].get(surrogate.law, surrogate.law))
 
 
 @dataclass(frozen=True)

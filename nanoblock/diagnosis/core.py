@@ -40,7 +40,7 @@ import numpy as np
 import xarray as xr
 from tqdm.auto import tqdm
 
-from nanoblock.diagnosis.catalogue import BASE, CATALOGUE, Effect, Surrogate
+from nanoblock.diagnosis.catalogue import BASE, CATALOGUE, CLOSURES, Effect, Surrogate, in_closure
 from nanoblock.diagnosis.drops import StickSlip, find_stick_slip
 from nanoblock.diagnosis.plausibility import implausible
 from nanoblock.diagnosis.resample import resample_by_travel
@@ -166,6 +166,7 @@ class Diagnosis:
             "ranking": [c.ranking_entry() for c in self.candidates],
             "untestable": self.untestable,
             "base": {
+                "law": self.base.fit.law,
                 "params": self.base.fit.params,
                 "stderr": self.base.fit.stderr,
                 "rms_residual": self.base.rms,
@@ -295,13 +296,44 @@ def _steady_stretches(measurement: Measurement, residuals: list[np.ndarray]) -> 
     return stretches
 
 
+CLOSURE_CHOICES = (*CLOSURES, "auto")
+"""The ``closure`` arguments of :func:`diagnose`."""
+
+
+def check_closure(closure: str) -> None:
+    """``ValueError`` naming ``closure`` and the choices unless it is one of them."""
+    if closure not in CLOSURE_CHOICES:
+        raise ValueError(
+            f"--closure / closure {closure!r} is not one of {', '.join(CLOSURE_CHOICES)}"
+        )
+
+
+def closed_base(measurement: Measurement, closure: str = "auto") -> tuple[str, Fit]:
+    """The base model's closure (:data:`~nanoblock.diagnosis.catalogue.CLOSURES`) and its
+    fit: ``closure`` itself, or with ``"auto"`` on time series the closure whose base fit
+    leaves the smaller residual sum of squares (the same parameters, so the information
+    criteria rank them alike); the aging law's on other kinds of data."""
+    check_closure(closure)
+    base = BASE[measurement.kind]
+    if measurement.kind != "time_series":
+        closure = "aging"
+    closures = CLOSURES if closure == "auto" else {closure: CLOSURES[closure]}
+    fits = {name: _full_fit(measurement, in_closure(base, name), None) for name in closures}
+
+    def squares(fit: Fit) -> float:
+        pairs = zip(fit.model, measurement.observed, strict=True)
+        return sum(float(np.sum((m - y) ** 2)) for m, y in pairs)
+
+    closure = min(fits, key=lambda name: squares(fits[name]))
+    return closure, fits[closure]
+
+
 def _fit_candidates(
-    measurement: Measurement, models: dict[str, Surrogate], runner: _Runner
+    measurement: Measurement, models: dict[str, Surrogate], base_fit: Fit, runner: _Runner
 ) -> tuple[dict[str, Fit], _NoiseModel, dict[str, Candidate], dict[str, str]]:
-    """Fit the base and every extension on all data (extensions warm-started from the
-    base), then measure the noise model and score each fit against it; the extensions
-    whose fit failed are returned apart, with why."""
-    base_fit = _full_fit(measurement, models["base"], None)
+    """Score the ``base_fit`` of ``models["base"]`` and fit every extension on all data
+    (warm-started from the base), then measure the noise model and score each fit against
+    it; the extensions whose fit failed are returned apart, with why."""
     runner.tick(1)
     names = [name for name in models if name != "base"]
     jobs = [(measurement, models[name], base_fit.start) for name in names]
@@ -420,7 +452,12 @@ def _supported(candidate: Candidate, base: Candidate, noise: float) -> bool:
 
 
 def diagnose(
-    data: xr.Dataset, *, progress: bool = False, workers: int = 1, simulate: bool = False
+    data: xr.Dataset,
+    *,
+    progress: bool = False,
+    workers: int = 1,
+    simulate: bool = False,
+    closure: str = "aging",
 ) -> Diagnosis:
     """Diagnose a :func:`~nanoblock.measured.load_measurement` Dataset (any kind).
 
@@ -430,10 +467,13 @@ def diagnose(
     ``simulate`` runs the simulation check (:mod:`nanoblock.diagnosis.simulation`) on the
     supported extensions (best first, at most ``SIMULATION_TRIES``) and accepts a cause
     only if switching it on does not make the simulated misfit worse; with no supported
-    extension it checks the best one, for the report.
+    extension it checks the best one, for the report. ``closure``: of the time-series
+    base and extensions (:func:`closed_base`): ``"aging"`` (the default), ``"renewal"``
+    or ``"auto"``, the one whose base fits better.
     """
     if workers < 1:
         raise ValueError(f"workers = {workers!r} is out of range [1, inf)")
+    check_closure(closure)
     check_diagnosable(data)
     stick_slip = []
     if data.attrs.get("kind") == "time_series":
@@ -448,10 +488,11 @@ def diagnose(
         for effect in CATALOGUE.values()
         if (reason := _testable(effect, measurement)) is not None
     }
-    models = {"base": BASE[measurement.kind]}
+    closure, base_fit = closed_base(measurement, closure)
+    models = {"base": in_closure(BASE[measurement.kind], closure)}
     models.update(
         {
-            name: effect.surrogates[measurement.kind]
+            name: in_closure(effect.surrogates[measurement.kind], closure)
             for name, effect in testable.items()
             if measurement.kind in effect.surrogates
         }
@@ -463,7 +504,7 @@ def diagnose(
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
-                fits, noise, scored, failed = _fit_candidates(measurement, models, runner)
+                fits, noise, scored, failed = _fit_candidates(measurement, models, base_fit, runner)
                 candidates = _score_heldout(measurement, models, fits, scored, runner)
                 untestable.update(failed)
         finally:
