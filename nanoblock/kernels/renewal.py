@@ -23,6 +23,16 @@ import numpy as np
 from ._jit import kernel
 
 
+@kernel(inline=True, nrt=False)
+def _rates(w: float, constants: np.ndarray) -> tuple[float, float, float, float]:
+    """(v [m/s], birth rate v / D [1/s], clock r(v), ageing rate r v0 / D [1/s]) at
+    w = ln(v / v0), with ``constants`` as :func:`renewal_slider_rate` takes them."""
+    memory, v0, v_theta = constants[1], constants[2], constants[4]
+    v = v0 * math.exp(w)
+    clock = v / (v + v_theta) if v_theta > 0.0 else 1.0
+    return v, v / memory, clock, clock * v0 / memory
+
+
 @kernel(nrt=False)
 def renewal_slider_rate(
     y: np.ndarray,
@@ -35,12 +45,9 @@ def renewal_slider_rate(
     """dy/dt [1/s] at drive V_L [m/s] into ``out``; ``constants`` = (a, D [m], v0 [m/s],
     K/W [1/m], v_theta [m/s] or 0 for no cutoff, b2, Dc2 [m]), b2 and Dc2 read only when
     y holds the second memory (``y.size == nodes.size + 3``)."""
-    a, memory, v0, stiffness, v_theta, b2, dc2 = constants
+    a, stiffness, b2, dc2 = constants[0], constants[3], constants[5], constants[6]
     n = nodes.size
-    v = v0 * math.exp(y[0])
-    birth = v / memory
-    clock = v / (v + v_theta) if v_theta > 0.0 else 1.0
-    ageing = clock * v0 / memory
+    v, birth, _, ageing = _rates(y[0], constants)
     total = 0.0
     for j in range(n):
         rate = birth - (nodes[j] * ageing + birth) * y[1 + j]
@@ -65,14 +72,11 @@ def renewal_slider_jacobian(
 ) -> None:
     """d(dy/dt)/dy of :func:`renewal_slider_rate` into ``out`` (dr/dw = r (1 - r) with the
     cutoff)."""
-    a, memory, v0, stiffness, v_theta, b2, dc2 = constants
+    a, stiffness, b2, dc2 = constants[0], constants[3], constants[5], constants[6]
     n = nodes.size
     size = y.size
-    v = v0 * math.exp(y[0])
-    birth = v / memory
-    clock = v / (v + v_theta) if v_theta > 0.0 else 1.0
-    ageing = clock * v0 / memory
-    slope = 1.0 - clock if v_theta > 0.0 else 0.0
+    v, birth, clock, ageing = _rates(y[0], constants)
+    slope = 1.0 - clock if constants[4] > 0.0 else 0.0
     out[:, :] = 0.0
     corner = -stiffness * v / a
     for j in range(n):
