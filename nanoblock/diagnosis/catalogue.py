@@ -64,9 +64,9 @@ fits the base with each and takes the extensions in the closure whose base fits 
 
 def in_closure(surrogate: Surrogate, closure: str) -> Surrogate:
     """``surrogate`` with its law in ``closure`` (a key of :data:`CLOSURES`)."""
-    if not isinstance(surrogate, RsfVariant):
+    if not isinstance(surrogate, RsfVariant) or surrogate.law not in CLOSURES[closure]:
         return surrogate
-    return replace(surrogate, law=CLOSURES[closure].get(surrogate.law, surrogate.law))
+    return replace(surrogate, law=CLOSURES[closure][surrogate.law])
 
 
 @dataclass(frozen=True)
