@@ -44,8 +44,8 @@ TAU_M = 1e-4
 """Ageing time tau_m of the base interface [s]."""
 
 ISSUE_RTOL = 0.10
-"""The issue's 10 % (A vs alpha mu0, v_act). For the spike (seeds 0-4: -0.9 % +- 1.7 %)
-a false alarm has probability 4e-8 and a true error of 12.2 % is caught with power 0.9."""
+"""The issue's 10 % (A vs alpha mu0, v_act); the spike's level and power are at
+:data:`SPIKE_SEEDS`."""
 
 SLOPE_SEED_SD = 0.04
 """Seed-to-seed sd of d ln Dc / d ln D0 and d ln B / d ln m (two base seeds): the slopes
@@ -77,9 +77,13 @@ STEADY_STEP = 1 / 16
 
 
 def _interface_base(
-    steps: list[dict], record_every: float, memory_length: float = D0, contacts: int = 3000
+    steps: list[dict],
+    record_every: float,
+    memory_length: float = D0,
+    contacts: int = 3000,
+    seed: int = 0,
 ) -> Scenario:
-    """The test interface on a stiff drive (K/W = 1e7 1/m), steady start, seed 0."""
+    """The test interface on a stiff drive (K/W = 1e7 1/m), steady start."""
     return scenario(
         interface={
             "n_contacts": contacts,
@@ -89,7 +93,7 @@ def _interface_base(
             "aging_time": TAU_M,
         },
         loading={"stiffness": 1e7, "steps": steps},
-        run={"seed": 0, "record_every": record_every, "initial_state": "steady"},
+        run={"seed": seed, "record_every": record_every, "initial_state": "steady"},
     )
 
 
@@ -204,28 +208,37 @@ def test_the_renewal_law_reads_the_interface_s_own_memory_length_and_ageing() ->
     assert abs(ageing.mean() - 1.0) < bound * RENEWAL_SEED_SD["b"]
 
 
-def spike_run(memory_length: float, contacts: int = 4000) -> xr.Dataset:
+def spike_run(memory_length: float, contacts: int = 4000, seed: int = 0) -> xr.Dataset:
     """1 -> 10 um/s at K/W = 1e8 1/m (001/Eq. 13 ratio ~2400 at D0 = 0.1 um): the spike."""
     steps = [
         {"velocity": 1e-6, "displacement": 0.5 * memory_length},
         {"velocity": 1e-5, "displacement": 0.3 * memory_length},
     ]
-    base = _interface_base(steps, 1e-4, memory_length, contacts)
+    base = _interface_base(steps, 1e-4, memory_length, contacts, seed)
     return simulate(varied(base, {"loading.stiffness": 1e8}))
+
+
+SPIKE_SEEDS = 24
+"""Seeds of the spike test. One spike's error scatters by ~6 % (sd of seeds 0-15,
+2026-11-26: +5.8 % +- 1.4 % on their mean, +6.5 % +- 1.5 % with thinned escapes), four
+times its own sample-noise stderr: the level before the step is a 0.1 D0 batch mean and
+the contacts' area fluctuates over D0. The mean of 24 has se ~1.2 %."""
 
 
 def test_spike_direct_effect_is_alpha_mu0_within_ten_percent() -> None:
     """A from the 1 -> 10 um/s spike (001/Eq. 12), 4000 contacts, vs alpha mu0 with the
-    exact secant alpha of 001/Eq. 28: within 10 % (seeds 0-4: -0.9 % +- 1.7 %; at
-    K/W = 1e7, ratio 240, -5.5 % +- 0.7 %: the state evolves during the loading);
-    001/Eq. 30's alpha = 1/2u would give alpha mu0 30 % lower."""
-    result = spike(spike_run(D0))
-    error = float(result.a / result.a_theory - 1)
-    print(
-        f"spike A = {float(result.a):.5f}, alpha mu0 = {float(result.a_theory):.5f}: {error:+.3f}"
-    )
-    assert abs(error) < ISSUE_RTOL
-    assert float(result.a_eq30) < 0.8 * float(result.a_theory)
+    exact secant alpha of 001/Eq. 28: the mean error of :data:`SPIKE_SEEDS` seeds within
+    the issue's 10 %. It is ~+6 %: the peak is the largest of ~30 noisy samples, biased
+    up by about two sample sds (~3 %), and the state evolves a little during the loading
+    (at K/W = 1e7, ratio 240, the spike is 5 % lower). At a true error of +6.5 % the mean
+    leaves 10 % with probability 2e-3 (3.5 / 1.2 se); a true error of 15 % is caught with
+    power > 0.999. 001/Eq. 30's alpha = 1/2u would give alpha mu0 30 % lower."""
+    results = [spike(spike_run(D0, seed=seed)) for seed in range(SPIKE_SEEDS)]
+    errors = np.array([float(r.a / r.a_theory - 1) for r in results])
+    mean, stderr = errors.mean(), errors.std(ddof=1) / math.sqrt(errors.size)
+    print(f"spike A / alpha mu0 - 1: {mean:+.4f} +- {stderr:.4f} (sd {errors.std(ddof=1):.4f})")
+    assert abs(mean) < ISSUE_RTOL
+    assert all(float(r.a_eq30) < 0.8 * float(r.a_theory) for r in results)
 
 
 ONSET_SWEEP_SE = 0.49
