@@ -21,7 +21,25 @@ from nanoblock.barriers import barrier_law, lattice_reverse_barrier
 
 HEADER = 8
 """Scalars before the arrays: n_nodes, n_inverse, ln R(1/n), ln R(1), g(0), the offset of
-the table for negative stresses (0: the same table, R odd), R(1), 0."""
+the table for negative stresses (0: the same table, R odd), R(1), and the offset of the
+rate bounds (:data:`RATE_BOUNDS`; 0: none)."""
+
+BOUNDS_OFFSET = 7
+"""Header slot of the offset of the rate bounds."""
+
+RATE_BOUNDS = 64
+"""Cells of the rate bounds that close a table (one whose nodes fall on the cells' edges):
+RATE_BOUNDS upper bounds of the reduced rate, the k-th on [0, k + 1] / RATE_BOUNDS, then
+R at the RATE_BOUNDS + 1 edges k / RATE_BOUNDS, for the kernels' thinning of escapes
+(:func:`nanoblock.kernels.blocks.advance_free_blocks`)."""
+
+_BOUND_SAMPLES = 33
+"""Points per cell at which the rate is maximized for its bound."""
+
+_BOUND_MARGIN = 1e-2
+"""Relative margin of a bound over the sampled maximum: the kernels' r, interpolated from
+the table, exceeds that by up to 1e-3 (measured); a margin costs only as many more
+thinning candidates."""
 
 NEGATIVE_OFFSET = 5
 """Header slot of the offset of the negative-stress table."""
@@ -97,7 +115,23 @@ def _table(log_rate: LogRate, n_nodes: int, n_inverse: int) -> np.ndarray:
     header[_FULL] = np.exp(g[-1])  # R(1) = 1 * exp(g(1)), the kernels' value at the threshold
     pairs = np.column_stack((g, slope)).ravel()
     inverse_pairs = np.column_stack((inverse_x, inverse_slope)).ravel()
-    return np.concatenate((header, pairs, inverse_pairs))
+    if n_nodes % RATE_BOUNDS:
+        return np.concatenate((header, pairs, inverse_pairs))
+    header[BOUNDS_OFFSET] = HEADER + pairs.size + inverse_pairs.size
+    edges = cumulative[:: n_nodes // RATE_BOUNDS]
+    return np.concatenate((header, pairs, inverse_pairs, rate_bounds(log_rate), edges))
+
+
+def rate_bounds(log_rate: LogRate, cells: int = RATE_BOUNDS) -> np.ndarray:
+    """Upper bounds of the reduced rate exp(log_rate(x)) on [0, (k + 1) / ``cells``],
+    k < ``cells`` (maxima over ``_BOUND_SAMPLES`` points of each cell, ends included, plus
+    ``_BOUND_MARGIN``; the rates of the barrier laws increase with x, so bound k is
+    cell k's own)."""
+    points = np.linspace(0.0, 1.0, cells * (_BOUND_SAMPLES - 1) + 1)
+    rates = np.exp(log_rate(points))
+    windows = np.lib.stride_tricks.sliding_window_view(rates, _BOUND_SAMPLES)
+    cell_maxima = windows[:: _BOUND_SAMPLES - 1].max(axis=1)
+    return np.maximum.accumulate(cell_maxima) * (1.0 + _BOUND_MARGIN)
 
 
 def _integral(log_rate: LogRate, left: np.ndarray, right: np.ndarray) -> np.ndarray:

@@ -124,9 +124,12 @@ def test_log_slope_matches_quadrature_and_tends_to_alpha(sweep) -> None:
     expected = np.diff(np.log(theory)) / spacing
     slope_error = np.hypot(error[1:] / stress[1:], error[:-1] / stress[:-1]) / spacing
     np.testing.assert_array_less(np.abs(simulated - expected), Z_MAX * slope_error + 1e-4)
-    # near V* (between 0.1 and 1 m/s) the local slope is alpha = 1/(2u) within 10 %
+    # near V* (between 0.1 and 1 m/s) the local slope is alpha = 1/(2u) within 10 %: the
+    # quadrature's secant (1.061 alpha), which the simulated one matches within Z_MAX se
+    # above; the simulated secant itself scatters by 3-6 % of alpha (seeds 11-14: 1.04 to
+    # 1.10 alpha), too much for a 10 % bound around alpha
     near = VELOCITIES.index(0.1)
-    assert simulated[near] == pytest.approx(joint.alpha, rel=0.1)
+    assert expected[near] == pytest.approx(joint.alpha, rel=0.1)
     assert float(log_slope(0.3, joint)) == pytest.approx(joint.alpha, rel=0.1)
     # at lab velocities the slope is well above alpha (the linear law fails there)
     assert simulated[0] > 1.5 * joint.alpha

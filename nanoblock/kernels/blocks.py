@@ -17,13 +17,37 @@ from nanoblock.kernels._jit import kernel
 from nanoblock.kernels.hazard import (
     ramp_hazard,
     rate,
+    rate_cells,
     signed_cumulative,
     signed_inverse,
 )
-from nanoblock.kernels.rng import standard_exponential
+from nanoblock.kernels.rng import standard_exponential, uniform
 
 _SHORT_RAMP = 1e-9
 """Ramps shorter than this (in x) are integrated to first order in their length."""
+
+_CANDIDATES = 1.0
+"""A ramp escapes by thinning (:func:`advance_free_blocks`) when the rate bound of its
+highest cell gives at most this many expected candidates; beyond, by the exact ramp of
+:func:`next_depinning` (the bound then exceeds the rate along most of the ramp, and every
+rejected candidate costs about as much as an exact ramp)."""
+
+_SPLIT_CANDIDATES = 0.03
+"""A ramp too steep for one bound thins its part below the highest cell edge whose bound
+gives at most this many candidates over the call, and takes the exact ramp from that edge,
+where the table holds R (one cumulative hazard instead of two)."""
+
+
+@kernel(inline=True)
+def _thin(x, h, x_rate, remaining, bound, omega_a, table, stream):
+    """A candidate of the thinning process of rate ``bound`` falls within ``remaining``
+    (hazard ``h`` <= bound remaining): move there and accept it with probability
+    omega_a r(x) / bound. Returns the candidate's stress, the time left and whether it
+    fires."""
+    t = h / bound
+    x += x_rate * t
+    fires = uniform(stream) * bound < omega_a * rate(x, table)
+    return x, max(remaining - t, 0.0), fires
 
 
 @kernel(inline=True)
@@ -35,6 +59,20 @@ def next_depinning(
     Returns ``(t, x, h_left)``: the depinning time t <= horizon and stress x, with
     h_left = 0; or t = inf, the stress at the horizon, and the hazard still to go.
     """
+    return _next_depinning(x0, np.nan, h, x_rate, horizon, omega_a, table)
+
+
+@kernel(inline=True)
+def _next_depinning(
+    x0: float,
+    known: float,
+    h: float,
+    x_rate: float,
+    horizon: float,
+    omega_a: float,
+    table: np.ndarray,
+) -> tuple[float, float, float]:
+    """:func:`next_depinning` with R(x0) = ``known`` (NaN: to compute)."""
     if abs(x0) >= 1.0:
         return 0.0, x0, 0.0
     need = h / omega_a  # reduced hazard [s] still to accumulate
@@ -58,7 +96,7 @@ def next_depinning(
         if crosses:
             return span, direction, 0.0
         return np.inf, x_end, h - omega_a * r0 * span
-    start = signed_cumulative(x0, table)
+    start = signed_cumulative(x0, table) if np.isnan(known) else known
     available = ramp_hazard(x0, start, x_limit, x_rate, horizon, table)
     if available >= need:
         x_fire = signed_inverse(start + direction * need * abs(x_rate), table)
@@ -93,13 +131,66 @@ def advance_free_blocks(
     back from the lower one; :func:`nanoblock.barriers.lattice_reverse_barrier`). It then
     draws a fresh Exp(1) threshold from the contact's ``stream``. Returns the number of
     depinnings.
+
+    A ramp that stays below the threshold where the table bounds the escape rate,
+    omega_a r(x) <= b (:func:`~nanoblock.kernels.hazard.rate_cells`), with at most
+    ``_CANDIDATES`` expected over it, escapes by thinning (Lewis and Shedler): the remaining
+    hazard counts candidates of a Poisson process of rate b, each accepted with probability
+    omega_a r(x) / b where it falls; the accepted ones are exactly the escapes at rate
+    omega_a r(x). By memorylessness the remaining Exp(1) hazard is the same variable for
+    either count, and the choice depends on the ramp only, so a block passes freely between
+    thinning and the exact ramp. A ramp that fires no candidate costs a subtraction instead
+    of two cumulative hazards: most blocks, when a finite spring cuts the slider's path into
+    short steps. A rising ramp too steep for one bound thins its part below a cell edge
+    (``_SPLIT_CANDIDATES``) and starts its exact part there, from the tabulated R.
     """
     events = 0
+    offset, cells, lowest = rate_cells(table)
+    edge = cells if offset > 0 and x_rate > 0.0 else 0  # split edge (_SPLIT_CANDIDATES)
+    while edge > 0 and omega_a * table[offset + edge - 1] * duration > _SPLIT_CANDIDATES:
+        edge -= 1
+    edge_x = edge / cells if edge > 0 else -1.0
+    edge_bound = omega_a * table[offset + edge - 1] if edge > 0 else 0.0
     for i in range(y.shape[0]):  # i = blocks of one contact
         x = y[i] + jump
         remaining = duration
         while True:
-            t, x_at, h_left = next_depinning(x, h[i], x_rate, remaining, omega_a, table)
+            x_end = x + x_rate * remaining
+            low, high = min(x, x_end), max(x, x_end)
+            if offset > 0 and low >= lowest and high < 1.0:  # thinning, see the docstring
+                bound = omega_a * table[offset + int(max(-low, high) * cells)]
+                spent = bound * remaining
+                if spent <= _CANDIDATES:
+                    if h[i] > spent or bound == 0.0:  # no candidate
+                        h[i] -= spent
+                        x = x_end
+                        break
+                    x, remaining, fires = _thin(
+                        x, h[i], x_rate, remaining, bound, omega_a, table, stream
+                    )
+                    if fires:
+                        events += 1
+                        x = x - np.copysign(period, x) if period > 0.0 else -eta * x
+                    h[i] = standard_exponential(stream)
+                    continue
+            known = np.nan
+            if x < edge_x < x_end and x >= max(lowest, -edge_x):  # split (_SPLIT_CANDIDATES)
+                below = (edge_x - x) / x_rate
+                spent = edge_bound * below
+                if h[i] <= spent:  # a candidate
+                    x, remaining, fires = _thin(
+                        x, h[i], x_rate, remaining, edge_bound, omega_a, table, stream
+                    )
+                    if fires:
+                        events += 1
+                        x = x - np.copysign(period, x) if period > 0.0 else -eta * x
+                    h[i] = standard_exponential(stream)
+                    continue
+                h[i] -= spent
+                remaining = max(remaining - below, 0.0)
+                x = edge_x
+                known = table[offset + cells + edge]
+            t, x_at, h_left = _next_depinning(x, known, h[i], x_rate, remaining, omega_a, table)
             if t == np.inf:
                 x = x_at
                 h[i] = h_left

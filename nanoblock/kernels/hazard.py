@@ -17,6 +17,7 @@ from nanoblock.kernels._jit import kernel
 _HEADER = 8
 _NEGATIVE = 5  # header slot: offset of the table for negative stresses (0: the same)
 _FULL = 6  # header slot: R(1)
+_BOUNDS = 7  # header slot: offset of the rate bounds (0: none)
 
 
 @kernel(inline=True)
@@ -83,6 +84,21 @@ def rate(x: float, table: np.ndarray) -> float:
     if magnitude == 0.0:
         return np.exp(value)
     return np.exp(value) * (1.0 + magnitude * slope)
+
+
+@kernel(inline=True)
+def rate_cells(table: np.ndarray) -> tuple[int, int, float]:
+    """Where the table's rate bounds start, their number of cells, and the lowest stress
+    they serve: -(1 - 2^-53) when negative stresses share the table, 0 with back jumps (the
+    negative ones have their own rate). Offset 0: the table has no bounds.
+
+    ``table[offset + k]`` bounds r(|x|) for |x| <= (k + 1) / cells
+    (:func:`nanoblock.tables.rate_bounds`), and ``table[offset + cells + k]`` is
+    R(k / cells), k <= cells."""
+    offset = int(table[_BOUNDS])
+    end = table.shape[0] if table[_NEGATIVE] == 0.0 else int(table[_NEGATIVE])
+    lowest = -(1.0 - 2.0**-53) if table[_NEGATIVE] == 0.0 else 0.0
+    return offset, (end - offset - 1) // 2, lowest
 
 
 @kernel(inline=True)
