@@ -343,6 +343,30 @@ def test_simulation_check_switches_on_a_second_contact_population() -> None:
     assert check["extended"]["systematic"] < 0.8 * check["base"]["systematic"]
 
 
+def test_a_fit_the_simulator_cannot_represent_is_said_not_silently_dropped() -> None:
+    """Runnable scenarios: a two-state fit with b2 < 0 has no two-population interface, so
+    ``base.toml`` is written alone and the note says why ``extended.toml`` is missing; a
+    base fit with b < 0 (no ageing m >= 0 makes it, 001/Eq. 5) gives neither, and the
+    report's section says so (it once wrote nothing and said nothing)."""
+    from nanoblock.diagnosis.report import _scenario_text
+    from nanoblock.diagnosis.simulation import calibrated_scenarios
+
+    data = _step_record()
+    base = {"mu0": 0.6, "a": 0.01, "b": 0.013, "dc": 2e-5, "v0": 1e-6, "stiffness": 2500.0}
+    scenarios, note = calibrated_scenarios(
+        data, base, "two_state_variable", {**base, "b2": -0.002, "dc2": 1e-4}
+    )
+    assert set(scenarios) == {"base"}
+    assert "no extended scenario: the two_state_variable fit cannot be simulated" in note
+    assert "b2 = -0.002" in note
+    scenarios, note = calibrated_scenarios(data, {**base, "b": -0.001}, None, {})
+    assert scenarios == {}
+    assert _scenario_text({}, note) == (
+        "None written: no runnable scenario: the base fit has b = -0.001 < 0: contact "
+        "ageing (m >= 0, 001/Eq. 5) cannot make it."
+    )
+
+
 def test_simulation_check_does_not_depend_on_how_many_runs_go_at_once() -> None:
     """The check's runs (interfaces x seeds) one after another or two at once on
     concurrent threads: the same trajectories, so the same misfits (60 contacts: the

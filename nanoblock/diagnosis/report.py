@@ -237,8 +237,14 @@ def _params(title: str, candidate: Candidate) -> list[str]:
     return lines
 
 
-def write_report(diagnosis: Diagnosis, source: str, figures: dict[str, Path]) -> str:
-    """The two-minute report: what is wrong, why, what was changed, what was gained."""
+def write_report(
+    diagnosis: Diagnosis,
+    source: str,
+    figures: dict[str, Path],
+    scenarios: tuple[dict[str, Path], str] | None = None,
+) -> str:
+    """The two-minute report: what is wrong, why, what was changed, what was gained;
+    ``scenarios``: the runnable scenarios written and their note (:func:`write_scenarios`)."""
     gain = diagnosis.gain()
     other = diagnosis.extended or diagnosis.best
     lines = [f"# Diagnosis of {source}", "", _summary(diagnosis), "", *_noise_text(diagnosis)]
@@ -261,6 +267,8 @@ def write_report(diagnosis: Diagnosis, source: str, figures: dict[str, Path]) ->
     if check:
         said = check.get("summary") or f"not run: {check.get('reason', check.get('status'))}"
         lines += ["## Simulation check", "", said, ""]
+    if scenarios is not None:
+        lines += ["## Runnable scenarios", "", _scenario_text(*scenarios), ""]
     lines += ["## Ranking (held-out blocks and BIC)", "", *_table(diagnosis.candidates,
                                                                  diagnosis.base), ""]  # fmt: skip
     if diagnosis.untestable:
@@ -274,10 +282,22 @@ def write_report(diagnosis: Diagnosis, source: str, figures: dict[str, Path]) ->
     return "\n".join(lines) + "\n"
 
 
-def write_scenarios(diagnosis: Diagnosis, data: xr.Dataset, out: Path) -> dict[str, Path]:
+def _scenario_text(written: dict[str, Path], note: str) -> str:
+    """What the runnable scenarios are, or why there are none."""
+    if not written:
+        return f"None written: {note}."
+    files = " and ".join(f"`{path.name}`" for path in written.values())
+    run = "`nanoblock run FILE --out STORE.zarr`"
+    return f"{files}: {run} simulates the calibrated interface ({note})."
+
+
+def write_scenarios(
+    diagnosis: Diagnosis, data: xr.Dataset, out: Path
+) -> tuple[dict[str, Path], str]:
     """``base.toml`` and ``extended.toml``: the calibrated nanoblock interface without and
     with the cause (or the best extension), so ``nanoblock run`` reproduces the simulation
-    check and a user can continue from it."""
+    check and a user can continue from it; and the note on their scaling, or on why one or
+    both are missing."""
     other = diagnosis.extended or diagnosis.best
     base = diagnosis.base.fit
     scenarios, note = calibrated_scenarios(
@@ -291,7 +311,7 @@ def write_scenarios(diagnosis: Diagnosis, data: xr.Dataset, out: Path) -> dict[s
         path = out / f"{name}.toml"
         path.write_text(scenario_toml(scenario, f"nanoblock diagnose: the {what}\n{note}"))
         written[name] = path
-    return written
+    return written, note
 
 
 def write_diagnosis(
@@ -304,7 +324,8 @@ def write_diagnosis(
     figures = plot_diagnosis(diagnosis, out)
     json_path = out / "diagnosis.json"
     json_path.write_text(json.dumps(_finite(diagnosis.to_json()), indent=2) + "\n")
+    scenarios = write_scenarios(diagnosis, data, out) if data is not None else None
     report = out / "report.md"
-    report.write_text(write_report(diagnosis, source, figures))
-    scenarios = write_scenarios(diagnosis, data, out) if data is not None else {}
-    return {"json": json_path, "report": report, **figures, **scenarios}
+    report.write_text(write_report(diagnosis, source, figures, scenarios))
+    written = scenarios[0] if scenarios is not None else {}
+    return {"json": json_path, "report": report, **figures, **written}

@@ -424,19 +424,26 @@ def calibrated_scenarios(
     stiffness = float(base_params[STIFFNESS]) * stiffness_scales(data, [run])[0]
     temperature = float(data.attrs.get("temperature", ROOM_TEMPERATURE))
     reference = reference_load([run.normal_force], False)
+    missing = None
+    if extension is not None and extension not in SWITCHES:
+        missing = NOT_SIMULATED.get(extension, "not simulated")
     try:
         built = _interfaces(
             run, stiffness, temperature, base_params, extension, extension_params, reference, laws
         )
     except CalibrationError as error:
-        return {}, str(error)
+        try:
+            built = _interfaces(run, stiffness, temperature, base_params, None, {}, reference, laws)
+        except CalibrationError as base_error:
+            return {}, f"no runnable scenario: {base_error}"
+        missing = f"the {extension} fit cannot be simulated: {error}"
     scale, run_in = built.scales["base"], built.run_in["base"]
     note = (
         f"similarity scaling: every length and time x {scale:.4g} (velocities unchanged); "
         f"the record starts after a run-in of {run_in:.4g} s"
     )
-    if extension is not None and extension not in SWITCHES:
-        note += f"; no extended scenario: {NOT_SIMULATED.get(extension, 'not simulated')}"
+    if missing is not None:
+        note += f"; no extended scenario: {missing}"
     return built.scenarios, note
 
 
