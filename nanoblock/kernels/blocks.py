@@ -39,15 +39,22 @@ where the table holds R (one cumulative hazard instead of two)."""
 
 
 @kernel(inline=True)
-def _thin(x, h, x_rate, remaining, bound, omega_a, table, stream):
+def _land(x: float, eta: float, period: float) -> float:
+    """Where a block depinned at stress ``x`` lands (see :func:`advance_free_blocks`)."""
+    return x - np.copysign(period, x) if period > 0.0 else -eta * x
+
+
+@kernel(inline=True)
+def _thin(x, h, x_rate, remaining, bound, omega_a, table, stream, eta, period):
     """A candidate of the thinning process of rate ``bound`` falls within ``remaining``
     (hazard ``h`` <= bound remaining): move there and accept it with probability
-    omega_a r(x) / bound. Returns the candidate's stress, the time left and whether it
-    fires."""
+    omega_a r(x) / bound, landing as :func:`_land`. Returns the block's stress, the time
+    left and 1 if it fired (else 0)."""
     t = h / bound
     x += x_rate * t
-    fires = uniform(stream) * bound < omega_a * rate(x, table)
-    return x, max(remaining - t, 0.0), fires
+    if uniform(stream) * bound < omega_a * rate(x, table):
+        return _land(x, eta, period), max(remaining - t, 0.0), 1
+    return x, max(remaining - t, 0.0), 0
 
 
 @kernel(inline=True)
@@ -165,12 +172,10 @@ def advance_free_blocks(
                         h[i] -= spent
                         x = x_end
                         break
-                    x, remaining, fires = _thin(
-                        x, h[i], x_rate, remaining, bound, omega_a, table, stream
+                    x, remaining, fired = _thin(
+                        x, h[i], x_rate, remaining, bound, omega_a, table, stream, eta, period
                     )
-                    if fires:
-                        events += 1
-                        x = x - np.copysign(period, x) if period > 0.0 else -eta * x
+                    events += fired
                     h[i] = standard_exponential(stream)
                     continue
             known = np.nan
@@ -178,12 +183,11 @@ def advance_free_blocks(
                 below = (edge_x - x) / x_rate
                 spent = edge_bound * below
                 if h[i] <= spent:  # a candidate
-                    x, remaining, fires = _thin(
-                        x, h[i], x_rate, remaining, edge_bound, omega_a, table, stream
-                    )
-                    if fires:
-                        events += 1
-                        x = x - np.copysign(period, x) if period > 0.0 else -eta * x
+                    x, remaining, fired = _thin(
+                        x, h[i], x_rate, remaining, edge_bound, omega_a, table, stream, eta,
+                        period,
+                    )  # fmt: skip
+                    events += fired
                     h[i] = standard_exponential(stream)
                     continue
                 h[i] -= spent
@@ -196,7 +200,7 @@ def advance_free_blocks(
                 h[i] = h_left
                 break
             events += 1
-            x = x_at - np.copysign(period, x_at) if period > 0.0 else -eta * x_at
+            x = _land(x_at, eta, period)
             h[i] = standard_exponential(stream)
             remaining -= t
         y[i] = x
