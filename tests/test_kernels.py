@@ -10,7 +10,13 @@ from scipy.special import dawsn
 
 from nanoblock.barriers import barrier_law
 from nanoblock.kernels import hazard
-from nanoblock.kernels.blocks import advance_free_blocks, landing_overshoot, next_depinning
+from nanoblock.kernels.blocks import (
+    _SPLIT_CANDIDATES,
+    _split_edge,
+    advance_free_blocks,
+    landing_overshoot,
+    next_depinning,
+)
 from nanoblock.kernels.chain import cluster_workspace, integrate_cluster, reduced_stress
 from nanoblock.kernels.rng import next_uint64, seed_streams, standard_exponential
 from nanoblock.tables import hazard_table, lattice_hazard_table
@@ -124,6 +130,28 @@ def test_rate_bounds_dominate_the_kernel_rate(barrier: str, u: float) -> None:
         assert np.all(bounds >= tops) and np.all(bounds <= 1.02 * tops)
         edges = [hazard.cumulative(k / cells, table) for k in range(cells + 1)]
         np.testing.assert_allclose(table[offset + cells :][: cells + 1], edges, rtol=1e-12)
+
+
+@pytest.mark.parametrize("barrier", ["persson", "spinodal"])
+def test_split_edge_bisection_is_the_linear_scan(barrier: str) -> None:
+    """The split edge of a rising ramp (the highest cell edge whose bound gives at most
+    _SPLIT_CANDIDATES candidates over the call) found by bisection equals the naive scan
+    down from the top cell, for calls from 1e-20 s to 1e5 s and for a table without bounds."""
+    omega_a = 1e12
+
+    def scan(table: np.ndarray, offset: int, cells: int, duration: float) -> int:
+        edge = cells
+        while edge > 0 and omega_a * table[offset + edge - 1] * duration > _SPLIT_CANDIDATES:
+            edge -= 1
+        return edge
+
+    for table in (hazard_table(barrier, 50.21), lattice_hazard_table(barrier, 50.21, 25.0)):
+        offset, cells, _ = hazard.rate_cells(table)
+        durations = np.concatenate(([0.0], np.logspace(-20.0, 5.0, 2001)))
+        found = [_split_edge(table, offset, cells, omega_a, d) for d in durations]
+        assert found == [scan(table, offset, cells, d) for d in durations]
+        assert len(set(found)) > cells // 2  # the sweep crosses most edges
+    assert _split_edge(table, 0, cells, omega_a, 1.0) == 0
 
 
 @pytest.mark.parametrize("steps", [1, 10, 40, 1000])

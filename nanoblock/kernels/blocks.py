@@ -39,6 +39,23 @@ where the table holds R (one cumulative hazard instead of two)."""
 
 
 @kernel(inline=True)
+def _split_edge(table: np.ndarray, offset: int, cells: int, omega_a: float, duration: float) -> int:
+    """The highest cell edge k <= ``cells`` whose rate bound omega_a table[offset + k - 1]
+    gives at most ``_SPLIT_CANDIDATES`` candidates over ``duration`` [s] (0 if none, or the
+    table has no bounds): a bisection, the bounds increase with k."""
+    if offset == 0:
+        return 0
+    low, high = 0, cells  # the edge lies in [low, high]
+    while low < high:
+        middle = (low + high + 1) // 2
+        if omega_a * table[offset + middle - 1] * duration > _SPLIT_CANDIDATES:
+            high = middle - 1
+        else:
+            low = middle
+    return low
+
+
+@kernel(inline=True)
 def _land(x: float, eta: float, period: float) -> float:
     """Where a block depinned at stress ``x`` lands (see :func:`advance_free_blocks`)."""
     return x - np.copysign(period, x) if period > 0.0 else -eta * x
@@ -153,9 +170,7 @@ def advance_free_blocks(
     """
     events = 0
     offset, cells, lowest = rate_cells(table)
-    edge = cells if offset > 0 and x_rate > 0.0 else 0  # split edge (_SPLIT_CANDIDATES)
-    while edge > 0 and omega_a * table[offset + edge - 1] * duration > _SPLIT_CANDIDATES:
-        edge -= 1
+    edge = _split_edge(table, offset, cells, omega_a, duration) if x_rate > 0.0 else 0
     edge_x = edge / cells if edge > 0 else -1.0
     edge_bound = omega_a * table[offset + edge - 1] if edge > 0 else 0.0
     for i in range(y.shape[0]):  # i = blocks of one contact
