@@ -3,12 +3,13 @@ show, ``PER_EFFECT`` cases each, and effect-free cases, diagnosed on 2 processes
 (``tests/hidden_matrix.py``: cases, the expected-answer rule, rates and bounds).
 
 Run: ``python benchmarks/bench_hidden_effects.py [PER_EFFECT [NONE_PER_KIND [KIND ...]]]
-[--closure=CLOSURE]`` (8, 8, every kind and the diagnosis's default closure ``aging`` by
+[--closure=CLOSURE] [--resume]`` (8, 8, every kind and the diagnosis's default closure ``aging`` by
 default; ``auto`` or ``renewal`` for the time-series base's other closures). Writes
 ``benchmarks/results_hidden_effects.json`` (with KINDs: ``results_hidden_effects_<KIND>...
 json``, with another closure ``..._<CLOSURE>.json``) after every case, ``complete`` false
-until the matrix is done (a stopped run still leaves a stratified prefix), and prints the
-markdown confusion matrix. A case that raises is recorded with verdict ``error: ...`` (a
+until the matrix is done (a stopped run still leaves a stratified prefix; ``--resume``
+keeps the cases such a file holds and runs the rest), and prints the markdown confusion
+matrix. A case that raises is recorded with verdict ``error: ...`` (a
 wrong answer) instead of stopping the matrix.
 """
 
@@ -40,8 +41,9 @@ from tests.hidden_matrix import (  # noqa: E402
 def main() -> None:
     per_effect = int(sys.argv[1]) if len(sys.argv) > 1 else 8
     none_per_kind = int(sys.argv[2]) if len(sys.argv) > 2 else per_effect
-    kinds = [arg for arg in sys.argv[3:] if not arg.startswith("--closure=")]
-    closures = [arg.removeprefix("--closure=") for arg in sys.argv[3:] if arg not in kinds]
+    options = [arg for arg in sys.argv[3:] if arg.startswith("--")]
+    kinds = [arg for arg in sys.argv[3:] if arg not in options]
+    closures = [arg.removeprefix("--closure=") for arg in options if arg.startswith("--closure=")]
     closure = closures[-1] if closures else "aging"
     matrix = [case for case in cases(per_effect, none_per_kind) if case.kind in (kinds or KINDS)]
     suffix = [] if closure == "aging" else [closure]
@@ -59,9 +61,15 @@ def main() -> None:
         "closure": closure,
         "planned_cases": len(matrix),
     }
-    results = []
+    results, earlier = _resumed(out.with_suffix(".json"), header, "--resume" in options)
+    if earlier:
+        header = {**header, "date": earlier["date"], "resumed": earlier["resumed"]}
+        started -= earlier["wall_seconds"]
+    done = {(r["kind"], r["effect"], r["index"]) for r in results}
+    todo = [case for case in matrix if (case.kind, case.effect, case.index) not in done]
+    report = {}
     with ProcessPoolExecutor(2) as pool:
-        futures = {pool.submit(run_case, case, closure): case for case in matrix}
+        futures = {pool.submit(run_case, case, closure): case for case in todo}
         for future in as_completed(futures):
             try:
                 result = future.result()
@@ -86,7 +94,22 @@ def main() -> None:
                 "cases": results,
             }
             out.with_suffix(".json").write_text(json.dumps(report, indent=1) + "\n")
-    print(markdown(report["confusion"]))
+    if report:
+        print(markdown(report["confusion"]))
+
+
+def _resumed(path: Path, header: dict, resume: bool) -> tuple[list[dict], dict]:
+    """With ``--resume``: the cases an earlier, stopped run of the same matrix (same
+    per_effect, none_per_kind, visible_chi2 and closure) wrote to ``path``, and that run's
+    date, wall seconds and the dates it was resumed at (this one appended); else nothing."""
+    if not resume or not path.exists():
+        return [], {}
+    stored = json.loads(path.read_text())
+    same = ("per_effect", "none_per_kind", "visible_chi2", "closure")
+    if any(stored.get(key, "aging" if key == "closure" else None) != header[key] for key in same):
+        sys.exit(f"{path}: --resume needs the same matrix ({', '.join(same)})")
+    resumed = [*stored.get("resumed", []), header["date"]]
+    return stored["cases"], {**stored, "resumed": resumed}
 
 
 if __name__ == "__main__":
