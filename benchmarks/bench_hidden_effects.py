@@ -55,7 +55,7 @@ def main() -> None:
         "cpus": os.cpu_count(),
         "load_average_at_start": os.getloadavg(),
         "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "per_effect": per_effect,
+        "cases_per_effect": per_effect,
         "none_per_kind": none_per_kind,
         "visible_chi2": VISIBLE_CHI2,
         "closure": closure,
@@ -100,12 +100,12 @@ def main() -> None:
 
 def _resumed(path: Path, header: dict, resume: bool) -> tuple[list[dict], dict]:
     """With ``--resume``: the cases an earlier, stopped run of the same matrix (same
-    per_effect, none_per_kind, visible_chi2 and closure) wrote to ``path``, and that run's
+    planned cases, none_per_kind, visible_chi2 and closure) wrote to ``path``, and that run's
     date, wall seconds and the dates it was resumed at (this one appended); else nothing."""
     if not resume or not path.exists():
         return [], {}
     stored = json.loads(path.read_text())
-    same = ("per_effect", "none_per_kind", "visible_chi2", "closure")
+    same = ("planned_cases", "none_per_kind", "visible_chi2", "closure")
     if any(stored.get(key, "aging" if key == "closure" else None) != header[key] for key in same):
         sys.exit(f"{path}: --resume needs the same matrix ({', '.join(same)})")
     resumed = [*stored.get("resumed", []), header["date"]]
