@@ -3,8 +3,8 @@ show, ``PER_EFFECT`` cases each, and effect-free cases, diagnosed on 2 processes
 (``tests/hidden_matrix.py``: cases, the expected-answer rule, rates and bounds).
 
 Run: ``python benchmarks/bench_hidden_effects.py [PER_EFFECT [NONE_PER_KIND [KIND ...]]]
-[--closure=CLOSURE] [--resume]`` (8, 8, every kind and the diagnosis's default closure ``aging`` by
-default; ``auto`` or ``renewal`` for the time-series base's other closures). Writes
+[--closure=CLOSURE] [--resume]`` (8, 8, every kind and the diagnosis's default closure
+``aging`` by default; ``auto`` or ``renewal`` for the time-series base's other closures). Writes
 ``benchmarks/results_hidden_effects.json`` (with KINDs: ``results_hidden_effects_<KIND>...
 json``, with another closure ``..._<CLOSURE>.json``) after every case, ``complete`` false
 until the matrix is done (a stopped run still leaves a stratified prefix; ``--resume``

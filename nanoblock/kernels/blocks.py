@@ -69,9 +69,10 @@ def _thin(x, h, x_rate, remaining, bound, omega_a, table, stream, eta, period):
     left and 1 if it fired (else 0)."""
     t = h / bound
     x += x_rate * t
+    left = max(remaining - t, 0.0)
     if uniform(stream) * bound < omega_a * rate(x, table):
-        return _land(x, eta, period), max(remaining - t, 0.0), 1
-    return x, max(remaining - t, 0.0), 0
+        return _land(x, eta, period), left, 1
+    return x, left, 0
 
 
 @kernel(inline=True)
