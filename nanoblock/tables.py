@@ -6,7 +6,10 @@ R(x) = int_0^x exp(-u f(s)) ds (001/Eq. 24 integrated along the drive; f from
 :mod:`nanoblock.barriers`). The table holds g(x) = ln(R(x) / x) and g'(x) on a uniform
 grid, for cubic Hermite evaluation to ~1e-14 relative over the whole range of R (which
 spans e^-u to 1), plus an inverse table, x and dx/d ln R on a uniform grid of ln R, whose
-cubic Hermite interpolant seeds Newton's method for R^-1 to ~1e-9 (one step then suffices).
+cubic Hermite interpolant seeds Newton's method for R^-1. The seed's error falls from ~1e-9
+at the smallest R to round-off where escapes happen; the header holds the level of ln R
+between which it is below :data:`SEED_TOLERANCE` in every cell; there the kernels take the
+seed as the inverse and skip Newton (a third of a mean-field depinning's cost).
 With back jumps a second table, for negative stresses, follows the first
 (:func:`lattice_hazard_table`).
 """
@@ -16,13 +19,15 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
+from scipy.interpolate import CubicHermiteSpline
 
 from nanoblock.barriers import barrier_law, lattice_reverse_barrier
 
-HEADER = 8
+HEADER = 10
 """Scalars before the arrays: n_nodes, n_inverse, ln R(1/n), ln R(1), g(0), the offset of
-the table for negative stresses (0: the same table, R odd), R(1), and the offset of the
-rate bounds (:data:`RATE_BOUNDS`; 0: none)."""
+the table for negative stresses (0: the same table, R odd), R(1), the offset of the
+rate bounds (:data:`RATE_BOUNDS`; 0: none) and the two levels of ln R between which the
+inverse table's seed is exact (:data:`SEED_TOLERANCE`; equal: nowhere)."""
 
 BOUNDS_OFFSET = 7
 """Header slot of the offset of the rate bounds."""
@@ -47,6 +52,16 @@ NEGATIVE_OFFSET = 5
 _FULL = 6
 """Header slot of R(1), the hazard of a whole ramp to the threshold (read at every
 deterministic depinning)."""
+
+EXACT_SEED = 8
+"""Header slots (this one and the next) of the levels of ln R between which the inverse
+table's seed is exact."""
+
+SEED_TOLERANCE = 2.5e-13
+"""Error of a seed of R^-1, relative in x and absolute in ln R, below which it counts as
+the inverse: twice its largest value at the quarter points of a cell (the cubic's error
+peaks mid-cell), 4x below the kernels' accuracy bound on R^-1 (1e-12 in both,
+``tests/test_kernels.py``)."""
 
 _GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(10)
 
@@ -113,6 +128,9 @@ def _table(log_rate: LogRate, n_nodes: int, n_inverse: int) -> np.ndarray:
     header = np.zeros(HEADER)
     header[:5] = (n_nodes, n_inverse, log_cumulative[0], log_cumulative[-1], g[0])
     header[_FULL] = np.exp(g[-1])  # R(1) = 1 * exp(g(1)), the kernels' value at the threshold
+    header[EXACT_SEED : EXACT_SEED + 2] = _exact_seed_levels(
+        CubicHermiteSpline(nodes, g, slope), inverse_levels, inverse_x, inverse_slope
+    )
     pairs = np.column_stack((g, slope)).ravel()
     inverse_pairs = np.column_stack((inverse_x, inverse_slope)).ravel()
     if n_nodes % RATE_BOUNDS:
@@ -132,6 +150,31 @@ def rate_bounds(log_rate: LogRate, cells: int = RATE_BOUNDS) -> np.ndarray:
     windows = np.lib.stride_tricks.sliding_window_view(rates, _BOUND_SAMPLES)
     cell_maxima = windows[:: _BOUND_SAMPLES - 1].max(axis=1)
     return np.maximum.accumulate(cell_maxima) * (1.0 + _BOUND_MARGIN)
+
+
+def _exact_seed_levels(
+    forward: CubicHermiteSpline, levels: np.ndarray, x: np.ndarray, slope: np.ndarray
+) -> tuple[float, float]:
+    """The ends of the longest run of inverse-table cells whose cubic Hermite seed (clamped
+    to its cell, as the kernels take it) is within :data:`SEED_TOLERANCE` of the root of
+    ln x + g(x) = ln R that the kernels' Newton finds (g: the ``forward`` interpolant), in
+    x and in ln R, at the cell's quarter points, with a factor 2 of margin (two equal
+    levels: no such cell)."""
+    quarters = (levels[:-1, None] + np.diff(levels)[:, None] * np.array([0.25, 0.5, 0.75])).ravel()
+    seed = CubicHermiteSpline(levels, x, slope)(quarters)
+    seed = np.clip(seed, np.repeat(x[:-1], 3), np.repeat(x[1:], 3))
+    derivative = forward.derivative()
+    root = seed.copy()
+    for _ in range(_INVERSE_NEWTON):
+        root -= (np.log(root) + forward(root) - quarters) / (1.0 / root + derivative(root))
+    log_slope = 1.0 / root + derivative(root)  # d ln R / dx
+    error = (np.abs(seed - root) * np.maximum(1.0 / root, log_slope)).reshape(-1, 3).max(axis=1)
+    good = np.concatenate(([0], (2.0 * error <= SEED_TOLERANCE).astype(np.int8), [0]))
+    starts, ends = np.flatnonzero(np.diff(good) == 1), np.flatnonzero(np.diff(good) == -1)
+    if starts.size == 0:
+        return float(levels[0]), float(levels[0])
+    longest = np.argmax(ends - starts)
+    return float(levels[starts[longest]]), float(levels[ends[longest]])
 
 
 def _integral(log_rate: LogRate, left: np.ndarray, right: np.ndarray) -> np.ndarray:

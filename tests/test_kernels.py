@@ -18,8 +18,9 @@ from nanoblock.kernels.blocks import (
     next_depinning,
 )
 from nanoblock.kernels.chain import cluster_workspace, integrate_cluster, reduced_stress
+from nanoblock.kernels.contacts import log_one_plus
 from nanoblock.kernels.rng import next_uint64, seed_streams, standard_exponential
-from nanoblock.tables import hazard_table, lattice_hazard_table
+from nanoblock.tables import EXACT_SEED, hazard_table, lattice_hazard_table
 from tests.tolerances import HAZARD_RTOL, LANDING_EXACT_RTOL, SIGNIFICANCE
 
 
@@ -80,6 +81,24 @@ def test_inverse_hazard_is_exact_over_the_whole_range(barrier: str, u: float) ->
         np.testing.assert_allclose(again, levels, rtol=1e-12, atol=0)
         if sign > 0:
             np.testing.assert_allclose(back, x, rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("u", [50.21, 300.0])
+@pytest.mark.parametrize("barrier", ["persson", "spinodal"])
+def test_seed_taken_as_the_inverse_only_where_it_is_exact(barrier: str, u: float) -> None:
+    """Between the header's levels the kernels return the inverse table's seed without
+    Newton: at 20,001 levels there (every inverse-table cell, several points each), R of
+    the returned x is the level to 1e-12, as Newton's result is everywhere. The reference
+    joint (persson, u = 50.21) takes the seed from ln R = -20 up to R(1), where its
+    thermal escapes happen."""
+    table = hazard_table(barrier, u)
+    low, high = table[EXACT_SEED], table[EXACT_SEED + 1]
+    if barrier == "persson" and u == 50.21:
+        assert low < -20.0 and high == table[3]
+    levels = np.exp(np.linspace(low, high, 20001)[:-1])
+    back = [hazard.inverse_cumulative(level, table) for level in levels]
+    again = np.array([hazard.cumulative(x, table) for x in back])
+    np.testing.assert_allclose(again, levels, rtol=1e-12, atol=0)
 
 
 def naive_firing_cdf(x0: float, x_rate: float, omega_a: float, u: float, x: np.ndarray):
@@ -268,3 +287,12 @@ def test_cluster_avalanche_pushes_a_neighbour_over_threshold() -> None:
     assert max(abs(reduced_stress(z, i, kappa)) for i in range(4)) < 1.0
     # the chain's total force (sum of plate-spring stretches) only falls in an avalanche
     assert sum(reduced_stress(z, i, kappa) for i in range(4)) < sum(x)
+
+
+def test_log_one_plus_is_log1p_to_a_few_ulps() -> None:
+    """001/Eq. 5's ln(1 + age / tau_m), computed per contact and step without log1p, agrees
+    with numpy's log1p to 4 ulps from z = 0 (a fresh contact) through 1e-300 ... 1e300; the
+    naive ln(1 + z) loses every digit below z ~ 1e-16 and fails this at 1e-12."""
+    z = np.concatenate(([0.0], np.geomspace(1e-300, 1e300, 20001)))
+    values = np.array([log_one_plus(v) for v in z])
+    np.testing.assert_allclose(values, np.log1p(z), rtol=4 * np.finfo(float).eps, atol=0)

@@ -14,10 +14,11 @@ import numpy as np
 
 from nanoblock.kernels._jit import kernel
 
-_HEADER = 8
+_HEADER = 10
 _NEGATIVE = 5  # header slot: offset of the table for negative stresses (0: the same)
 _FULL = 6  # header slot: R(1)
 _BOUNDS = 7  # header slot: offset of the rate bounds (0: none)
+_EXACT_SEED = 8  # header slots 8, 9: the ln R levels between which the seed is exact
 
 
 @kernel(inline=True)
@@ -125,7 +126,9 @@ _MAX_NEWTON = 100
 @kernel(inline=True)
 def _inverse(level: float, table: np.ndarray, start: int) -> float:
     """Newton on ln x + g(x) = ln ``level``, seeded by the cubic Hermite inverse table
-    (error ~1e-9 where R is smooth in ln R, so one step usually reaches round-off)."""
+    (error ~1e-9 where R is smallest, so one step usually reaches round-off); between the
+    header's levels the seed is exact to 1e-13 (:data:`nanoblock.tables.SEED_TOLERANCE`)
+    and is the inverse."""
     if level <= 0.0:
         return 0.0
     n_nodes = int(table[start])
@@ -153,6 +156,8 @@ def _inverse(level: float, table: np.ndarray, start: int) -> float:
             + (s3 - s2) * d1
         )
         x = min(max(seed, x0), x1)  # R^-1 is monotone; a steep cell's cubic may overshoot
+        if table[start + _EXACT_SEED] <= target < table[start + _EXACT_SEED + 1]:
+            return x
     low, high = 0.0, 1.0  # brackets the root; Newton steps that leave it are bisected
     for _ in range(_MAX_NEWTON):
         value, slope = _hermite(x, table, start)
