@@ -558,8 +558,9 @@ def diagnose(
         str,
         typer.Option(
             help="time series: base law's closure of the contacts' renewal: aging, renewal "
-            "(the population without the aging closure, 2-5x the cost) or auto (the one "
-            "whose base fits better)"
+            "(the population without the aging closure, 2-5x the cost), auto (the one "
+            "whose base fits better) or best (both in full; the verdict whose final model "
+            "has the lower information criterion)"
         ),
     ] = "aging",
 ) -> None:

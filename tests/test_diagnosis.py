@@ -225,6 +225,21 @@ def test_auto_closure_takes_the_generators_own_population_average() -> None:
     assert diagnose(cohorts).cause != "none"
 
 
+def test_best_closure_compares_final_models_not_bases() -> None:
+    """``closure="best"`` runs a full pass in each closure and keeps the verdict whose
+    final model has the lower information criterion. On the cohort generator's effect-free
+    record (matrix case #0) the aging pass accepts ``state_velocity_cutoff`` (its misfit of
+    the generator's own relaxation) and the renewal pass ends with its base, whose IC is
+    lower (measured: -1682 against -1516), so the verdict is ``none``."""
+    cohorts, _ = MAKERS["time_series"]("none", Case("time_series", "none", 0).rng())
+    result = diagnose(cohorts, closure="best")
+    passes = result.closures
+    assert passes["aging"]["final"] == "state_velocity_cutoff"
+    assert passes["renewal"]["final"] == "base"
+    assert passes["renewal"]["information_criterion"] < passes["aging"]["information_criterion"]
+    assert result.cause == "none" and result.base.fit.law == "renewal"
+
+
 def test_calibrated_threshold_inverts_the_exact_slope() -> None:
     """sigma_a of the reference joint whose exact slope of 001/Eq. 28 at v0 is alpha."""
     from nanoblock.diagnosis.simulation import _joint, calibrated_threshold

@@ -362,6 +362,23 @@ def test_laboratory_records_get_catalogue_causes_with_plausible_parameters() -> 
     assert named >= 5
 
 
+@pytest.mark.slow
+@needs_lab
+def test_best_closure_names_the_cause_the_renewal_base_alone_hides() -> None:
+    """75 MPa 2.3 -> 23 um/s: the renewal base fits better than the aging base (rms
+    3.43e-4 against 3.75e-4), so ``auto`` continues in the renewal closure, where no
+    extension halves the excess, and says ``unexplained``; ``best`` also runs the aging
+    pass, whose final model (aging law + second state) has the lower IC (measured: -16420
+    against -15960 for the renewal base), and names ``two_state_variable``."""
+    data = load_measurement(SHARED_DATA / "p655_75MPa_vstep_2p3to23.csv")
+    result = diagnose(data, closure="best")
+    passes = result.closures
+    assert passes["aging"]["final"] == "two_state_variable"
+    assert passes["renewal"]["final"] == "base"
+    assert passes["aging"]["information_criterion"] < passes["renewal"]["information_criterion"]
+    assert result.cause == "two_state_variable"
+
+
 TWO_LOADS = ("p655_75MPa_vstep_2p3to23.csv", "p655_100MPa_vstep_2p3to23.csv")
 
 

@@ -128,6 +128,9 @@ class Diagnosis:
     """Supported extensions the simulation check contradicted, with why."""
     window_study: dict[str, Any] = field(default_factory=dict)
     """Time series: the aging law's D_c against the fit window after the steps."""
+    closures: dict[str, dict[str, Any]] = field(default_factory=dict)
+    """``closure="best"``: each closure's final model (``base`` or the accepted cause),
+    base law and information criterion; the lowest one's pass gives the verdict."""
 
     @property
     def extended(self) -> Candidate | None:
@@ -194,6 +197,7 @@ class Diagnosis:
             "stick_slip": [event.to_json() for event in self.stick_slip],
             "not_confirmed": self.not_confirmed,
             "window_study": self.window_study,
+            "closures": self.closures,
         }
 
 
@@ -296,7 +300,7 @@ def _steady_stretches(measurement: Measurement, residuals: list[np.ndarray]) -> 
     return stretches
 
 
-CLOSURE_CHOICES = (*CLOSURES, "auto")
+CLOSURE_CHOICES = (*CLOSURES, "auto", "best")
 """The ``closure`` arguments of :func:`diagnose`."""
 
 
@@ -310,14 +314,14 @@ def check_closure(closure: str) -> None:
 
 def closed_base(measurement: Measurement, closure: str = "auto") -> tuple[str, Fit]:
     """The base model's closure (:data:`~nanoblock.diagnosis.catalogue.CLOSURES`) and its
-    fit: ``closure`` itself, or with ``"auto"`` on time series the closure whose base fit
-    leaves the smaller residual sum of squares (the same parameters, so the information
-    criteria rank them alike); the aging law's on other kinds of data."""
+    fit: ``closure`` itself, or with ``"auto"`` (and ``"best"``) on time series the closure
+    whose base fit leaves the smaller residual sum of squares (the same parameters, so the
+    information criteria rank them alike); the aging law's on other kinds of data."""
     check_closure(closure)
     base = BASE[measurement.kind]
     if measurement.kind != "time_series":
         closure = "aging"
-    closures = CLOSURES if closure == "auto" else {closure: CLOSURES[closure]}
+    closures = CLOSURES if closure in ("auto", "best") else {closure: CLOSURES[closure]}
     fits = {name: _full_fit(measurement, in_closure(base, name), None) for name in closures}
 
     def squares(fit: Fit) -> float:
@@ -451,6 +455,71 @@ def _supported(candidate: Candidate, base: Candidate, noise: float) -> bool:
     return not candidate.structure.systematic or explained >= EXCESS_EXPLAINED
 
 
+@dataclass
+class _Closure:
+    """One closure's pass of the diagnosis: its noise model, scored base, extensions
+    (lowest IC first), failed fits and the extensions the verdict rule supports."""
+
+    closure: str
+    noise: _NoiseModel
+    base: Candidate
+    candidates: list[Candidate]
+    failed: dict[str, str]
+    supported: list[Candidate]
+
+    @property
+    def final(self) -> Candidate:
+        """The model this pass ends with: the supported extension that forecasts best, or
+        the base."""
+        return self.supported[0] if self.supported else self.base
+
+
+def _closure_pass(
+    measurement: Measurement, testable: dict[str, Effect], closure: str, runner: _Runner
+) -> _Closure:
+    """Fit, score and rank the base and the ``testable`` extensions in ``closure``."""
+    closure, base_fit = closed_base(measurement, closure)
+    models = {"base": in_closure(BASE[measurement.kind], closure)}
+    models.update(
+        {
+            name: in_closure(effect.surrogates[measurement.kind], closure)
+            for name, effect in testable.items()
+            if measurement.kind in effect.surrogates
+        }
+    )
+    fits, noise, scored, failed = _fit_candidates(measurement, models, base_fit, runner)
+    candidates = _score_heldout(measurement, models, fits, scored, runner)
+    # the excess a cause must halve is the base variance above the floor at the model's
+    # resolution (the white noise of synthetic records; more on real ones, whichever the
+    # coloured-noise flag says), so a record and its decimation weigh causes alike
+    supported = [c for c in candidates if _supported(c, scored["base"], noise.floor)]
+    if measurement.kind == "time_series":  # the best forecast among the supported
+        supported.sort(key=lambda c: c.heldout_error)
+    return _Closure(closure, noise, scored["base"], candidates, failed, supported)
+
+
+def _best_closure(passes: list[_Closure]) -> tuple[_Closure, dict[str, dict[str, Any]]]:
+    """The pass whose final model (base plus the cause it accepts) has the lowest
+    information criterion, all scored with the smallest effective sample size among the
+    passes' noise models (so the comparison does not depend on whose residuals measured
+    it), and each pass's final model, base law and criterion, for the report."""
+    sizes = [p.noise.n_effective for p in passes if p.noise.n_effective is not None]
+    n_effective = min(sizes) if sizes else None
+    scores = {
+        p.closure: information_criterion(p.final.residuals, p.final.fit.n_free, n_effective)
+        for p in passes
+    }
+    table = {
+        p.closure: {
+            "final": p.final.id,
+            "law": p.base.fit.law,
+            "information_criterion": scores[p.closure],
+        }
+        for p in passes
+    }
+    return min(passes, key=lambda p: scores[p.closure]), table
+
+
 def diagnose(
     data: xr.Dataset,
     *,
@@ -468,8 +537,10 @@ def diagnose(
     supported extensions (best first, at most ``SIMULATION_TRIES``) and accepts a cause
     only if switching it on does not make the simulated misfit worse; with no supported
     extension it checks the best one, for the report. ``closure``: of the time-series
-    base and extensions (:func:`closed_base`): ``"aging"`` (the default), ``"renewal"``
-    or ``"auto"``, the one whose base fits better.
+    base and extensions (:func:`closed_base`): ``"aging"`` (the default), ``"renewal"``,
+    ``"auto"``, the one whose base fits better, or ``"best"``: a full pass in each, and
+    the verdict of the pass whose final model (base plus the cause it accepts) has the
+    lower information criterion (:func:`_best_closure`; twice the cost).
     """
     if workers < 1:
         raise ValueError(f"workers = {workers!r} is out of range [1, inf)")
@@ -488,39 +559,26 @@ def diagnose(
         for effect in CATALOGUE.values()
         if (reason := _testable(effect, measurement)) is not None
     }
-    closure, base_fit = closed_base(measurement, closure)
-    models = {"base": in_closure(BASE[measurement.kind], closure)}
-    models.update(
-        {
-            name: in_closure(effect.surrogates[measurement.kind], closure)
-            for name, effect in testable.items()
-            if measurement.kind in effect.surrogates
-        }
-    )
-    n_folds = len(measurement.folds())
-    steps = len(models) + 2 * n_folds  # the held-out count grows with what the IC supports
+    time_series = measurement.kind == "time_series"
+    passes = list(CLOSURES) if closure == "best" and time_series else [closure]
+    surrogates = sum(measurement.kind in effect.surrogates for effect in testable.values())
+    steps = len(passes) * (surrogates + 1 + 2 * len(measurement.folds()))
     with tqdm(total=steps, desc="diagnosis", disable=not progress, leave=False) as bar:
         runner = _Runner(workers, bar.update)
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
-                fits, noise, scored, failed = _fit_candidates(measurement, models, base_fit, runner)
-                candidates = _score_heldout(measurement, models, fits, scored, runner)
-                untestable.update(failed)
+                done = [_closure_pass(measurement, testable, name, runner) for name in passes]
         finally:
             runner.close()
-    base = scored["base"]
-    # the excess a cause must halve is the base variance above the floor at the model's
-    # resolution (the white noise of synthetic records; more on real ones, whichever the
-    # coloured-noise flag says), so a record and its decimation weigh causes alike
-    supported = [c for c in candidates if _supported(c, base, noise.floor)]
-    if measurement.kind == "time_series":  # the best forecast among the supported
-        supported.sort(key=lambda c: c.heldout_error)
+    chosen, closures = _best_closure(done) if len(done) > 1 else (done[0], {})
+    untestable.update(chosen.failed)
+    noise, base, supported = chosen.noise, chosen.base, chosen.supported
     diagnosis = Diagnosis(
         kind=measurement.kind,
         noise=noise.level,
         base=base,
-        candidates=candidates,
+        candidates=chosen.candidates,
         untestable=untestable,
         cause="unexplained" if base.structure.systematic else "none",
         trends=_trends(base.residuals, measurement.covariates),
@@ -529,6 +587,7 @@ def diagnose(
         signal_label=measurement.signal_label,
         noise_model={**noise.to_json(), "samples": int(data.attrs.get("resampled_from", 0))},
         stick_slip=stick_slip,
+        closures=closures,
     )
     if measurement.kind == "time_series":
         diagnosis.window_study = window_study(data)

@@ -213,6 +213,25 @@ def _noise_text(diagnosis: Diagnosis) -> list[str]:
     ]
 
 
+def _closure_text(diagnosis: Diagnosis) -> list[str]:
+    """With ``--closure best``: which closure's pass gave the verdict, and why."""
+    if not diagnosis.closures:
+        return []
+    passes = ", ".join(
+        f"{name} (base law `{entry['law']}`) ends with `{entry['final']}` at IC "
+        f"{entry['information_criterion']:.1f}"
+        for name, entry in diagnosis.closures.items()
+    )
+    chosen = min(
+        diagnosis.closures, key=lambda name: diagnosis.closures[name]["information_criterion"]
+    )
+    return [
+        f"Closure: both were run; {passes}. The verdict is the {chosen} closure's, whose "
+        "final model has the lower information criterion.",
+        "",
+    ]
+
+
 def _table(candidates: list[Candidate], base: Candidate) -> list[str]:
     lines = [
         "| model | held-out error | IC | Delta IC vs base | rms | residuals systematic |",
@@ -250,7 +269,7 @@ def write_report(
     lines = [f"# Diagnosis of {source}", "", _summary(diagnosis), "", *_noise_text(diagnosis)]
     if diagnosis.window_study:
         lines += [window_text(diagnosis.window_study), ""]
-    lines += [f"Data kind: {diagnosis.kind}.", ""]
+    lines += [f"Data kind: {diagnosis.kind}.", "", *_closure_text(diagnosis)]
     lines += ["## What is wrong, and why", "", *_verdict_text(diagnosis), ""]
     if other is not None:
         lines += [
