@@ -60,6 +60,7 @@ def timed(data: xr.Dataset, closure: str) -> dict:
         "simulation_check": result.simulation_check.get("status", "not_run"),
         "simulation_seconds": result.simulation_check.get("seconds"),
         "dc_growth": result.window_study.get("dc_growth"),
+        "closures": result.closures,
     }
 
 

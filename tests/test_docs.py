@@ -271,8 +271,9 @@ def test_readme_laboratory_verdicts_are_those_the_benchmark_wrote() -> None:
 def test_readme_hidden_effect_matrix_is_the_one_the_benchmark_wrote() -> None:
     """The README's time-series confusion matrix and its count of right verdicts are those
     ``benchmarks/bench_hidden_effects.py 8 8 time_series`` wrote, and its counts for
-    ``--closure=auto`` those of ``..._auto.json`` (a stratified prefix is quoted beside the
-    default's count on the same cases)."""
+    ``--closure=auto`` and ``--closure=best`` those of ``..._auto.json`` and
+    ``..._best.json`` (a stratified prefix is quoted beside the default's count on the
+    same cases)."""
     from tests.hidden_matrix import markdown
 
     path = ROOT / "benchmarks" / "results_hidden_effects_time_series.json"
@@ -282,19 +283,23 @@ def test_readme_hidden_effect_matrix_is_the_one_the_benchmark_wrote() -> None:
     right, words = results["all"], " ".join(section.split())
     assert f"{right['right']} of {right['cases']} right" in words
     assert f"lower bound {right['lower_bound']:.2f}" in words
-    auto = json.loads(path.with_name(f"{path.stem}_auto.json").read_text())
-    right, free = auto["all"], auto["none_expected"]
-    assert auto["closure"] == "auto"
-    assert f"{right['right']} of {right['cases']} right (lower bound" in words
-    assert f"{right['lower_bound']:.2f}), effect-free {free['right']} of {free['cases']}" in words
-    if auto["complete"]:
-        assert f"on all {right['cases']} cases" in words
-        return
-    assert f"the first {right['cases']} cases" in words
-    same = {(case["effect"], case["index"]) for case in auto["cases"]}
-    default = [c for c in results["cases"] if (c["effect"], c["index"]) in same]
-    hits = sum(c["verdict"] == c["expected"] for c in default)
-    assert f"(the default: {hits} of {len(default)})" in words
+    for closure in ("auto", "best"):
+        other = json.loads(path.with_name(f"{path.stem}_{closure}.json").read_text())
+        right, free = other["all"], other["none_expected"]
+        assert other["closure"] == closure
+        quoted = words.split(f"--closure {closure}")[1]
+        assert f"{right['right']} of {right['cases']} right (lower bound" in quoted
+        assert (
+            f"{right['lower_bound']:.2f}), effect-free {free['right']} of {free['cases']}" in quoted
+        )
+        if other["complete"]:
+            assert f"on all {right['cases']} cases" in quoted
+            continue
+        assert f"the first {right['cases']} cases" in quoted
+        same = {(case["effect"], case["index"]) for case in other["cases"]}
+        default = [c for c in results["cases"] if (c["effect"], c["index"]) in same]
+        hits = sum(c["verdict"] == c["expected"] for c in default)
+        assert f"(the default: {hits} of {len(default)})" in quoted
 
 
 def test_readme_quick_start_times_are_those_the_benchmark_wrote() -> None:
