@@ -11,8 +11,7 @@ are skipped when the data are absent.
 
 Run: ``python benchmarks/bench_diagnosis.py [--closure=CLOSURE]``; writes
 ``benchmarks/results_diagnosis.json`` (``results_diagnosis_<CLOSURE>.json`` with a closure
-other than the default ``aging``)
-(the README's laboratory table is made from it).
+other than the default ``aging``; the README's laboratory table is made from the default's).
 """
 
 from __future__ import annotations
@@ -32,6 +31,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from nanoblock.diagnosis import diagnose, load_for_diagnosis  # noqa: E402
+from nanoblock.diagnosis.core import DEFAULT_CLOSURE  # noqa: E402
 from tests.rsf_synthetic import record  # noqa: E402
 from tests.test_real_records import two_loads  # noqa: E402
 
@@ -65,7 +65,7 @@ def timed(data: xr.Dataset, closure: str) -> dict:
 
 
 def main() -> None:
-    closure = sys.argv[1].removeprefix("--closure=") if len(sys.argv) > 1 else "aging"
+    closure = sys.argv[1].removeprefix("--closure=") if len(sys.argv) > 1 else DEFAULT_CLOSURE
     rng = np.random.default_rng(0)
     truth = {"mu0": 0.6, "a": 0.01, "b": 0.013, "dc": 2e-5, "v0": 1e-6}
     synthetic = record("aging", truth, "velocity_step", 2500.0, rng, n_samples=5000, trend=80.0)
@@ -88,7 +88,7 @@ def main() -> None:
         "closure": closure,
         "results": results,
     }
-    suffix = "" if closure == "aging" else f"_{closure}"
+    suffix = "" if closure == DEFAULT_CLOSURE else f"_{closure}"
     path = ROOT / "benchmarks" / f"results_diagnosis{suffix}.json"
     path.write_text(json.dumps(out, indent=2, default=float) + "\n")
     print(markdown(results))

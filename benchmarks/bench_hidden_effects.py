@@ -4,7 +4,7 @@ show, ``PER_EFFECT`` cases each, and effect-free cases, diagnosed on 2 processes
 
 Run: ``python benchmarks/bench_hidden_effects.py [PER_EFFECT [NONE_PER_KIND [KIND ...]]]
 [--closure=CLOSURE] [--resume]`` (8, 8, every kind and the diagnosis's default closure
-``aging`` by default; ``auto`` or ``renewal`` for the time-series base's other closures). Writes
+``aging`` by default; ``renewal``, ``auto`` or ``best`` for the time-series base's others). Writes
 ``benchmarks/results_hidden_effects.json`` (with KINDs: ``results_hidden_effects_<KIND>...
 json``, with another closure ``..._<CLOSURE>.json``) after every case, ``complete`` false
 until the matrix is done (a stopped run still leaves a stratified prefix; ``--resume``
@@ -28,6 +28,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from nanoblock.diagnosis.core import DEFAULT_CLOSURE  # noqa: E402
 from tests.hidden_matrix import (  # noqa: E402
     KINDS,
     VISIBLE_CHI2,
@@ -44,9 +45,9 @@ def main() -> None:
     options = [arg for arg in sys.argv[3:] if arg.startswith("--")]
     kinds = [arg for arg in sys.argv[3:] if arg not in options]
     closures = [arg.removeprefix("--closure=") for arg in options if arg.startswith("--closure=")]
-    closure = closures[-1] if closures else "aging"
+    closure = closures[-1] if closures else DEFAULT_CLOSURE
     matrix = [case for case in cases(per_effect, none_per_kind) if case.kind in (kinds or KINDS)]
-    suffix = [] if closure == "aging" else [closure]
+    suffix = [] if closure == DEFAULT_CLOSURE else [closure]
     out = ROOT / "benchmarks" / "_".join(["results_hidden_effects", *kinds, *suffix])
     started = time.perf_counter()
     header = {

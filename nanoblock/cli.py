@@ -562,7 +562,7 @@ def diagnose(
             "whose base fits better) or best (both in full; the verdict whose final model "
             "has the lower information criterion)"
         ),
-    ] = "aging",
+    ] = "aging",  # nanoblock.diagnosis.core.DEFAULT_CLOSURE (not imported: start-up time)
 ) -> None:
     """Diagnose what the base nanoblock model gets wrong on DATA, and why.
 

@@ -22,7 +22,7 @@ import numpy as np
 from scipy.stats import beta
 
 from nanoblock.diagnosis import diagnose
-from nanoblock.diagnosis.core import closed_base
+from nanoblock.diagnosis.core import DEFAULT_CLOSURE, closed_base
 from nanoblock.diagnosis.resample import resample_by_travel
 from nanoblock.diagnosis.surrogates import Measurement
 from tests.hidden_synthetic import EFFECTS, MAKERS
@@ -65,7 +65,7 @@ def _signal(data) -> np.ndarray:
     return data["s" if data.attrs["kind"] == "clamped_sample" else "mu"].values
 
 
-def base_chi2(data, clean, closure: str = "aging") -> float:
+def base_chi2(data, clean, closure: str = DEFAULT_CLOSURE) -> float:
     """chi^2 of the base model (in the diagnosis's ``closure``) fitted to the noiseless
     ``clean`` (see the module docstring)."""
     noise = _signal(data) - _signal(clean)
@@ -79,7 +79,9 @@ def base_chi2(data, clean, closure: str = "aging") -> float:
     return squares / variance
 
 
-def expected_answer(case: Case, data, clean, closure: str = "aging") -> tuple[str, float | None]:
+def expected_answer(
+    case: Case, data, clean, closure: str = DEFAULT_CLOSURE
+) -> tuple[str, float | None]:
     """(expected verdict, noiseless base chi^2 or None when the rule does not need it)."""
     if case.effect in ("none", "unstable_sliding"):
         return case.effect, None
@@ -87,7 +89,7 @@ def expected_answer(case: Case, data, clean, closure: str = "aging") -> tuple[st
     return (case.effect if chi2 >= VISIBLE_CHI2 else "none"), chi2
 
 
-def run_case(case: Case, closure: str = "aging") -> dict:
+def run_case(case: Case, closure: str = DEFAULT_CLOSURE) -> dict:
     """Make the case, fix its expected answer, then diagnose it with the base law's
     ``closure`` (CPU seconds recorded)."""
     started = time.process_time()

@@ -3,6 +3,7 @@ the command line, and hidden effects found in data made by other code paths."""
 
 from __future__ import annotations
 
+import inspect
 import json
 import math
 import re
@@ -215,14 +216,26 @@ def test_auto_closure_takes_the_generators_own_population_average() -> None:
     effect-free record (matrix case #0, AR(1) noise phi 0.69) and the aging base for the
     aging-law generator's; on the cohort record the renewal closure finds nothing to
     explain (``none``), while the aging closure's misfit of the generator's own relaxation
-    is taken for a cause (session 12's matrix: 7 of 8 effect-free records called
+    is taken for a cause (the aging closure's matrix: 8 of 8 effect-free records called
     ``state_velocity_cutoff``)."""
     cohorts, _ = MAKERS["time_series"]("none", Case("time_series", "none", 0).rng())
     aging_law = time_series_case("none", np.random.default_rng(8), NOISE["time_series"])
     assert closed_base(Measurement(resample_by_travel(cohorts)))[0] == "renewal"
     assert closed_base(Measurement(resample_by_travel(aging_law)))[0] == "aging"
     assert diagnose(cohorts, closure="auto").cause == "none"
-    assert diagnose(cohorts).cause != "none"
+    assert diagnose(cohorts, closure="aging").cause != "none"
+
+
+def test_the_cli_and_the_api_default_to_the_same_closure() -> None:
+    """``nanoblock diagnose`` spells the default closure out (its module does not import
+    the diagnosis at start-up): it is :data:`~nanoblock.diagnosis.core.DEFAULT_CLOSURE`,
+    the API's default."""
+    from nanoblock import cli
+    from nanoblock.diagnosis.core import CLOSURE_CHOICES, DEFAULT_CLOSURE
+
+    default = inspect.signature(cli.diagnose).parameters["closure"].default
+    assert default == DEFAULT_CLOSURE == inspect.signature(diagnose).parameters["closure"].default
+    assert DEFAULT_CLOSURE in CLOSURE_CHOICES
 
 
 def test_best_closure_compares_final_models_not_bases() -> None:

@@ -16,6 +16,7 @@ from typer.testing import CliRunner
 
 from nanoblock.cli import app
 from nanoblock.diagnosis import CATALOGUE, diagnose, drops
+from nanoblock.diagnosis.core import DEFAULT_CLOSURE
 from nanoblock.diagnosis.drops import find_stick_slip
 from nanoblock.diagnosis.plausibility import implausible
 from nanoblock.diagnosis.report import _summary
@@ -412,17 +413,33 @@ def test_two_loads_of_one_experiment_show_a_friction_level_falling_with_load() -
     assert result.base.heldout_error / result.extended.heldout_error > 1.2
 
 
+BEST_DECIMATION = (
+    "best's verdict moves with decimation (measured: two_state_variable on the record, "
+    "machine_stiffness on its decimation; the renewal pass's fitted stiffness removes 49 % "
+    "of the excess over the noise on one and 58 % on the other, across the rule's 50 %)"
+)
+
+
 @pytest.mark.slow
 @needs_lab
-def test_verdict_survives_decimation_to_100_hz() -> None:
+@pytest.mark.parametrize(
+    "closure",
+    [
+        DEFAULT_CLOSURE,
+        pytest.param("best", marks=pytest.mark.xfail(strict=True, reason=BEST_DECIMATION)),
+    ],
+)
+def test_verdict_survives_decimation_to_100_hz(closure: str) -> None:
     """The 75 MPa 2.3 -> 23 um/s record (10/100/1000 Hz) and its decimation to at most
-    100 Hz get the same verdict."""
+    100 Hz get the same verdict, in the default closure; ``best`` does not yet (strict
+    xfail: a fix makes it fail until the mark goes)."""
     data = load_measurement(SHARED_DATA / "p655_75MPa_vstep_2p3to23.csv")
     time = data["time"].values
     keep = np.concatenate([[True], np.diff(np.floor(time * 100.0 + 1e-6)) > 0])
     decimated = data.isel(sample=keep)
     assert decimated.sizes["sample"] < 0.8 * data.sizes["sample"]
-    assert diagnose(decimated).cause == diagnose(data).cause
+    verdicts = [diagnose(d, closure=closure).cause for d in (decimated, data)]
+    assert verdicts[0] == verdicts[1]
 
 
 QI_FITS = [
