@@ -413,27 +413,48 @@ def test_two_loads_of_one_experiment_show_a_friction_level_falling_with_load() -
     assert result.base.heldout_error / result.extended.heldout_error > 1.2
 
 
-BEST_DECIMATION = (
-    "best's verdict moves with decimation (measured: two_state_variable on the record, "
-    "machine_stiffness on its decimation; the renewal pass's fitted stiffness removes 49 % "
-    "of the excess over the noise on one and 58 % on the other, across the rule's 50 %)"
-)
+UNSTABLE_UNDER_DECIMATION = {
+    ("p655_75MPa_vstep_2p3to23.csv", "best"): (
+        "measured: two_state_variable on the record, machine_stiffness on its decimation; "
+        "the renewal pass's fitted stiffness removes 49 % of the excess over the noise on "
+        "one and 58 % on the other, across the rule's 50 %"
+    ),
+    ("p655_100MPa_vstep_229to2p3.csv", DEFAULT_CLOSURE): (
+        "measured: non_steady_history on the record, unexplained on its decimation; the "
+        "pre-step stretch (229 um/s) is 1 kHz, 500 travel bins, but 175 raw samples after "
+        "decimation, so per-sample statistics weigh it 2x less: the initial state removes "
+        "53 % of the excess on one and 27 % on the other (floor 2.4e-4 vs 1.7e-4)"
+    ),
+}
+"""Records and closures whose verdict still moves with decimation, and why (strict
+xfails: a fix makes them fail until the entry goes)."""
 
 
 @pytest.mark.slow
 @needs_lab
 @pytest.mark.parametrize(
-    "closure",
+    ("name", "closure"),
     [
-        DEFAULT_CLOSURE,
-        pytest.param("best", marks=pytest.mark.xfail(strict=True, reason=BEST_DECIMATION)),
+        pytest.param(
+            name,
+            closure,
+            marks=[pytest.mark.xfail(strict=True, reason=why)]
+            if (why := UNSTABLE_UNDER_DECIMATION.get((name, closure)))
+            else [],
+        )
+        for name, closure in [
+            ("p655_75MPa_vstep_2p3to23.csv", DEFAULT_CLOSURE),
+            ("p655_75MPa_vstep_2p3to23.csv", "best"),
+            ("p655_100MPa_vstep_229to2p3.csv", DEFAULT_CLOSURE),
+        ]
     ],
 )
-def test_verdict_survives_decimation_to_100_hz(closure: str) -> None:
-    """The 75 MPa 2.3 -> 23 um/s record (10/100/1000 Hz) and its decimation to at most
-    100 Hz get the same verdict, in the default closure; ``best`` does not yet (strict
-    xfail: a fix makes it fail until the mark goes)."""
-    data = load_measurement(SHARED_DATA / "p655_75MPa_vstep_2p3to23.csv")
+def test_verdict_survives_decimation_to_100_hz(name: str, closure: str) -> None:
+    """A mixed-rate record (10/100/1000 Hz) and its decimation to at most 100 Hz get the
+    same verdict. Measured in the default closure on all six records: five keep it; the
+    100 MPa 229 -> 2.3 um/s step does not, nor does ``best`` on the 75 MPa 2.3 -> 23 um/s
+    step (:data:`UNSTABLE_UNDER_DECIMATION`)."""
+    data = load_measurement(SHARED_DATA / name)
     time = data["time"].values
     keep = np.concatenate([[True], np.diff(np.floor(time * 100.0 + 1e-6)) > 0])
     decimated = data.isel(sample=keep)
