@@ -25,6 +25,7 @@ from nanoblock.diagnosis import diagnose
 from nanoblock.diagnosis.core import DEFAULT_CLOSURE, closed_base
 from nanoblock.diagnosis.resample import resample_by_travel
 from nanoblock.diagnosis.surrogates import Measurement
+from tests.engine_synthetic import ENGINE_EFFECTS, engine_time_series
 from tests.hidden_synthetic import EFFECTS, MAKERS
 
 SEED = 20261125
@@ -33,6 +34,12 @@ VISIBLE_CHI2 = 25.0
 CONFIDENCE = 0.95
 """Of the one-sided Clopper-Pearson lower bounds (2.5 % in each tail of the interval)."""
 KINDS = tuple(EFFECTS)
+"""The kinds of the suite's draw and of the default matrix."""
+ENGINE_KIND = "engine_time_series"
+"""Time series made by the nanoblock engine (``tests/engine_synthetic.py``): a matrix of
+its own, run by naming the kind (``bench_hidden_effects.py 2 2 engine_time_series``)."""
+ALL_EFFECTS = {**EFFECTS, ENGINE_KIND: ENGINE_EFFECTS}
+ALL_MAKERS = {**MAKERS, ENGINE_KIND: engine_time_series}
 
 
 @dataclass(frozen=True)
@@ -43,19 +50,19 @@ class Case:
 
     def rng(self) -> np.random.Generator:
         """Its own stream: a case's data do not depend on which other cases run."""
-        effects = ("none", *EFFECTS[self.kind])
-        key = [SEED, KINDS.index(self.kind), effects.index(self.effect), self.index]
+        effects = ("none", *ALL_EFFECTS[self.kind])
+        key = [SEED, list(ALL_EFFECTS).index(self.kind), effects.index(self.effect), self.index]
         return np.random.default_rng(key)
 
 
-def cases(per_effect: int, none_per_kind: int) -> list[Case]:
-    """``per_effect`` cases of every effect of every kind and ``none_per_kind`` effect-free
-    ones per kind, interleaved (case i of every effect before case i + 1), so that any
-    prefix is stratified."""
+def cases(per_effect: int, none_per_kind: int, kinds: tuple[str, ...] = KINDS) -> list[Case]:
+    """``per_effect`` cases of every effect of every kind (of ``kinds``) and
+    ``none_per_kind`` effect-free ones per kind, interleaved (case i of every effect before
+    case i + 1), so that any prefix is stratified."""
     out = []
     for i in range(max(per_effect, none_per_kind)):
-        for kind in KINDS:
-            effects = EFFECTS[kind] if i < per_effect else ()
+        for kind in kinds:
+            effects = ALL_EFFECTS[kind] if i < per_effect else ()
             out.extend(Case(kind, e, i) for e in (("none",) if i < none_per_kind else ()))
             out.extend(Case(kind, e, i) for e in effects)
     return out
@@ -82,8 +89,11 @@ def base_chi2(data, clean, closure: str = DEFAULT_CLOSURE) -> float:
 def expected_answer(
     case: Case, data, clean, closure: str = DEFAULT_CLOSURE
 ) -> tuple[str, float | None]:
-    """(expected verdict, noiseless base chi^2 or None when the rule does not need it)."""
-    if case.effect in ("none", "unstable_sliding"):
+    """(expected verdict, noiseless base chi^2 or None when the rule does not need it).
+    An engine-made record has no noiseless twin: its expected answer is the effect drawn
+    (each drawn from the renewal generator's ranges, where that generator's effects are
+    visible)."""
+    if case.effect in ("none", "unstable_sliding") or clean is None:
         return case.effect, None
     chi2 = base_chi2(data, clean, closure)
     return (case.effect if chi2 >= VISIBLE_CHI2 else "none"), chi2
@@ -93,7 +103,7 @@ def run_case(case: Case, closure: str = DEFAULT_CLOSURE) -> dict:
     """Make the case, fix its expected answer, then diagnose it with the base law's
     ``closure`` (CPU seconds recorded)."""
     started = time.process_time()
-    data, clean = MAKERS[case.kind](case.effect, case.rng())
+    data, clean = ALL_MAKERS[case.kind](case.effect, case.rng())
     expected, chi2 = expected_answer(case, data, clean, closure)
     verdict = diagnose(data, closure=closure).cause
     seconds = time.process_time() - started
