@@ -273,7 +273,8 @@ def test_readme_hidden_effect_matrix_is_the_one_the_benchmark_wrote() -> None:
     ``benchmarks/bench_hidden_effects.py 8 8 time_series`` wrote, and its counts for
     ``--closure=auto`` and ``--closure=best`` those of ``..._auto.json`` and
     ``..._best.json`` (a stratified prefix is quoted beside the default's count on the
-    same cases)."""
+    same cases), and its counts on the engine-made records those of
+    ``results_hidden_effects_engine_time_series[_best].json``."""
     from tests.hidden_matrix import markdown
 
     path = ROOT / "benchmarks" / "results_hidden_effects_time_series.json"
@@ -300,6 +301,15 @@ def test_readme_hidden_effect_matrix_is_the_one_the_benchmark_wrote() -> None:
         default = [c for c in results["cases"] if (c["effect"], c["index"]) in same]
         hits = sum(c["verdict"] == c["expected"] for c in default)
         assert f"(the default: {hits} of {len(default)})" in quoted
+    engine = [
+        json.loads(
+            path.with_name(f"results_hidden_effects_engine_time_series{suffix}.json").read_text()
+        )["all"]
+        for suffix in ("", "_best")
+    ]
+    quoted = words.split("engine_time_series`):")[1]
+    assert quoted.startswith(f" {engine[0]['right']} of {engine[0]['cases']} right,")
+    assert f"`--closure best` {engine[1]['right']} of {engine[1]['cases']}" in quoted
 
 
 def test_readme_quick_start_times_are_those_the_benchmark_wrote() -> None:

@@ -60,3 +60,28 @@ def test_every_case_of_a_kind_has_the_same_layout() -> None:
         )
         layouts.setdefault(case.kind, set()).add(layout)
     assert all(len(found) == 1 for found in layouts.values()), layouts
+
+
+def test_engine_records_share_the_renewal_generators_layout(monkeypatch) -> None:
+    """An engine-made record (a second population switched on; 50 contacts, the layout
+    not the statistics under test) has the columns, loads, sample count and attributes of
+    the renewal generator's time series, so its layout carries no answer."""
+    from tests import engine_synthetic
+    from tests.hidden_matrix import ENGINE_KIND, Case
+
+    monkeypatch.setattr(engine_synthetic, "N_CONTACTS", 50)
+
+    def layout(data) -> tuple:
+        forces = tuple(np.unique(data["normal_force"].values))
+        return (
+            tuple(sorted(data.data_vars)),
+            forces,
+            data.sizes["sample"],
+            tuple(sorted(data.attrs)),
+        )
+
+    renewal, _ = MAKERS["time_series"]("none", Case("time_series", "none", 0).rng())
+    case = Case(ENGINE_KIND, "two_state_variable", 0)
+    data, clean = engine_synthetic.engine_time_series(case.effect, case.rng())
+    assert clean is None and layout(data) == layout(renewal)
+    assert np.all(np.isfinite(data["mu"].values))
