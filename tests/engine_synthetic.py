@@ -35,11 +35,13 @@ from tests.diagnosis_synthetic import NOISE, _dataset, _displacement
 from tests.hidden_synthetic import (
     COLOURED_SHARE,
     FORCES,
-    RENEWAL_B,
-    RENEWAL_DC,
+    V1,
     _noise,
     _protocol,
     _sample_times,
+    draw_effect,
+    draw_interface,
+    stated_stiffness,
 )
 
 ENGINE_EFFECTS = tuple(SWITCHES)
@@ -51,28 +53,19 @@ N_CONTACTS = 1000
 def _targets(effect: str, rng: np.random.Generator) -> tuple[dict, dict, float, float]:
     """(base targets, targets with the effect, memory length D0 [m], stated K/W [1/m]), in
     the aging law's parameters (D_c = DC_PER_D0 D0); the draws of the renewal generator."""
-    v1 = 1e-6
-    a = rng.uniform(0.006, 0.015)
-    b = a + rng.uniform(-0.003, 0.005)
-    d0 = math.exp(rng.uniform(math.log(1e-5), math.log(8e-5)))
-    stated = (3 * max(RENEWAL_B * b - a, 0.0) + 0.6 * a) / (RENEWAL_DC * d0)
-    base = {"mu0": rng.uniform(0.5, 0.7), "a": a, "b": b, "dc": DC_PER_D0 * d0, "v0": v1,
-            "stiffness": stated}  # fmt: skip
-    extra: dict[str, float] = {}
-    if effect == "state_velocity_cutoff":
-        extra["v_theta"] = v1 * math.exp(rng.uniform(math.log(0.5), math.log(5.0)))
-    elif effect == "velocity_saturation":
-        extra["tau_m"] = d0 / (v1 * math.exp(rng.uniform(math.log(0.5), math.log(5.0))))
-    elif effect == "load_dependent_dc":
-        extra[LOAD_EXPONENT] = rng.uniform(0.5, 1.0)
-    elif effect == "two_state_variable":
-        extra["b2"] = b * rng.uniform(0.3, 0.7)
-        extra["dc2"] = DC_PER_D0 * d0 * rng.uniform(8.0, 20.0)
-    elif effect == "machine_stiffness":
-        low = rng.random() < 0.5
-        extra["stiffness"] = stated * (rng.uniform(0.4, 0.7) if low else rng.uniform(1.5, 2.5))
-    elif effect != "none":
+    if effect not in (*ENGINE_EFFECTS, "none"):
         raise ValueError(f"{effect!r} has no simulator option ({', '.join(ENGINE_EFFECTS)})")
+    a, b, d0, mu0 = draw_interface(rng)
+    stated = stated_stiffness(a, b, d0)
+    base = {"mu0": mu0, "a": a, "b": b, "dc": DC_PER_D0 * d0, "v0": V1, "stiffness": stated}
+    drawn = draw_effect(effect, rng, b, d0)
+    extra = {key: drawn[key] for key in ("v_theta", "tau_m", "b2") if key in drawn}
+    if "exponent" in drawn:
+        extra[LOAD_EXPONENT] = drawn["exponent"]
+    if "d2_per_d0" in drawn:
+        extra["dc2"] = DC_PER_D0 * d0 * drawn["d2_per_d0"]
+    if "stiffness_factor" in drawn:
+        extra["stiffness"] = stated * drawn["stiffness_factor"]
     return base, {**base, **extra}, d0, stated
 
 

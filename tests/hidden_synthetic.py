@@ -57,6 +57,8 @@ BASE_TAU = 1e-6
 """tau_m of the effect-free picture [D / v1]: V_sat = 1e6 v1, so the saturation term
 ~ (tau_m V / D) ln(D / (tau_m V)) ~ 1e-4 at 10 v1 moves mu by ~1e-6 (1e-3 would put a
 velocity saturation of ~5e-4 in every record)."""
+V1 = 1e-6
+"""First (and base) load-point velocity of every time series [m/s]."""
 COLOURED_SHARE = 1.0 / 3.0
 """Share of time series with AR(1) noise (lag-1 autocorrelation 0.5-0.9)."""
 
@@ -94,40 +96,66 @@ def _noise(rng: np.random.Generator, size: int, sigma: float, phi: float) -> np.
     return out
 
 
-def time_series(effect: str, rng: np.random.Generator) -> tuple[xr.Dataset, xr.Dataset]:
-    """A renewal spring-slider record with ``effect`` (or ``none``): (data, noiseless)."""
-    v1 = 1e-6
+def draw_interface(rng: np.random.Generator) -> tuple[float, float, float, float]:
+    """(a, b, D [m], mu0) of a time series, drawn in that order."""
     a = rng.uniform(0.006, 0.015)
     b = a + rng.uniform(-0.003, 0.005)
     d0 = math.exp(rng.uniform(math.log(1e-5), math.log(8e-5)))
-    p = {"mu0": rng.uniform(0.5, 0.7), "a": a, "b": b, "d0": d0, "tau_m": BASE_TAU * d0 / v1}
+    return a, b, d0, rng.uniform(0.5, 0.7)
+
+
+def stated_stiffness(a: float, b: float, d0: float) -> float:
+    """The K/W [1/m] a record states: 3 (B - a)+ + 0.6 a over D_c, in the renewal
+    relaxation's effective aging-law values (:data:`RENEWAL_B`, :data:`RENEWAL_DC`)."""
+    return (3 * max(RENEWAL_B * b - a, 0.0) + 0.6 * a) / (RENEWAL_DC * d0)
+
+
+def draw_effect(effect: str, rng: np.random.Generator, b: float, d0: float) -> dict[str, float]:
+    """The drawn size of an effect that the engine can switch on too (``{}`` for the
+    others): v_theta [m/s], tau_m [s], the memory's load exponent, b2 and d2 / D, or the
+    factor on the stated stiffness (halves below and above, 0.4-0.7 or 1.5-2.5)."""
+    if effect == "state_velocity_cutoff":
+        return {"v_theta": V1 * math.exp(rng.uniform(math.log(0.5), math.log(5.0)))}
+    if effect == "velocity_saturation":
+        return {"tau_m": d0 / (V1 * math.exp(rng.uniform(math.log(0.5), math.log(5.0))))}
+    if effect == "load_dependent_dc":
+        return {"exponent": rng.uniform(0.5, 1.0)}
+    if effect == "two_state_variable":
+        return {"b2": b * rng.uniform(0.3, 0.7), "d2_per_d0": rng.uniform(8.0, 20.0)}
+    if effect == "machine_stiffness":
+        low = rng.random() < 0.5
+        return {"stiffness_factor": rng.uniform(0.4, 0.7) if low else rng.uniform(1.5, 2.5)}
+    return {}
+
+
+def time_series(effect: str, rng: np.random.Generator) -> tuple[xr.Dataset, xr.Dataset]:
+    """A renewal spring-slider record with ``effect`` (or ``none``): (data, noiseless)."""
+    if effect not in (*TIME_SERIES_EFFECTS, "none"):
+        raise ValueError(effect)
+    v1 = V1
+    a, b, d0, mu0 = draw_interface(rng)
+    p = {"mu0": mu0, "a": a, "b": b, "d0": d0, "tau_m": BASE_TAU * d0 / v1}
     sigma = NOISE["time_series"] * rng.uniform(0.7, 1.4)
     phi = rng.uniform(0.5, 0.9) if rng.random() < COLOURED_SHARE else 0.0
-    k_stated = (3 * max(RENEWAL_B * b - a, 0.0) + 0.6 * a) / (RENEWAL_DC * d0)
-    k_true, trend, exponent, before = k_stated, 0.0, 0.0, []
+    k_stated = stated_stiffness(a, b, d0)
+    drawn = draw_effect(effect, rng, b, d0)
+    k_true = k_stated * drawn.pop("stiffness_factor", 1.0)
+    exponent = drawn.pop("exponent", 0.0)
+    if "d2_per_d0" in drawn:
+        p["d2"] = d0 * drawn.pop("d2_per_d0")
+    p.update(drawn)
+    trend, before = 0.0, []
     if effect == "slip_trend":
         slip = sum(v * d for v, d in _protocol(d0, v1))
         trend = rng.choice([-1.0, 1.0]) * rng.uniform(10.0, 40.0) * sigma / slip
     elif effect == "aging_rate":
         p["slip_like"] = True
-    elif effect == "state_velocity_cutoff":
-        p["v_theta"] = v1 * math.exp(rng.uniform(math.log(0.5), math.log(5.0)))
-    elif effect == "velocity_saturation":
-        p["tau_m"] = d0 / (v1 * math.exp(rng.uniform(math.log(0.5), math.log(5.0))))
-    elif effect == "load_dependent_dc":
-        exponent = rng.uniform(0.5, 1.0)
-    elif effect == "two_state_variable":
-        p["b2"], p["d2"] = b * rng.uniform(0.3, 0.7), d0 * rng.uniform(8.0, 20.0)
     elif effect == "non_steady_history":
         v_before = v1 * 10 ** (rng.choice([-1.0, 1.0]) * rng.uniform(0.5, 1.0))
         before = [(v_before, rng.uniform(1.0, 3.0) * d0 / v_before)]
-    elif effect == "machine_stiffness":
-        k_true *= rng.uniform(0.4, 0.7) if rng.random() < 0.5 else rng.uniform(1.5, 2.5)
     elif effect == "unstable_sliding":
         p["b"] = (a + rng.uniform(0.002, 0.004)) / RENEWAL_B
         k_stated = k_true = rng.uniform(0.7, 0.9) * (RENEWAL_B * p["b"] - a) / (RENEWAL_DC * d0)
-    elif effect != "none":
-        raise ValueError(effect)
     segments = _protocol(d0, v1)
     time = _sample_times(segments)
     displacement = _displacement(segments, time)

@@ -9,8 +9,8 @@ The stick-slip onset uses D0 = 0.3 um and 2000 contacts: at D0 = 0.1 um it lies 
 above (B - A)/Dc, as the direct effect is not adiabatic at the Hopf frequency
 (001/Eqs. 36-38). Tolerances are the issue's (10 %) where it sets them, else z_bound or
 Z_MAX Monte Carlo standard errors or seed-to-seed sds (false alarm <= SIGNIFICANCE each);
-the measured numbers and their seed-to-seed scatter are in the README section
-"Coarse-graining: from nanoblocks to rate-and-state"; levels and powers in tests/README.md.
+the measured numbers and their seed-to-seed scatter are in docs/validation.md and below;
+levels and powers in tests/README.md.
 """
 
 from __future__ import annotations
@@ -47,16 +47,20 @@ ISSUE_RTOL = 0.10
 """The issue's 10 % (A vs alpha mu0, v_act); the spike's level and power are at
 :data:`SPIKE_SEEDS`."""
 
-SLOPE_SEED_SD = 0.04
-"""Seed-to-seed sd of d ln Dc / d ln D0 and d ln B / d ln m (two base seeds): the slopes
-must be 1 within z_bound() of it (0.13; power 0.9 against a slope off by 0.18)."""
+SLOPE_SEED_SD = {"dc": 0.057, "b": 0.033}
+"""Seed-to-seed sd of d ln Dc / d ln D0 and of d ln B / d ln m, seeds 1-10 (2026-11-27;
+two seeds had given 0.04): the slopes must be 1 within z_bound() of it (0.19 and 0.11;
+power 0.9 against a slope off by 0.26 and 0.15). Measured means 1.075 +- 0.018 (Dc/D0
+0.468, 0.504, 0.518 at D0 = 0.05, 0.1, 0.2 um: D_c falls short of self-similarity at
+the smallest D0, 50 samples per D0 there) and 1.012 +- 0.010."""
 
-RATIO_SEED_SD = 0.02
-"""Seed-to-seed sd of B / (m sigma_s/p) (0.855, 0.897, 0.896, 0.883 with seeds 0-3) and of
-Dc/D0 (the slope sd 0.04 times the ln D0 spread sqrt(2) ln 2 = 0.98 is 4 % of Dc, 0.02 of
-Dc/D0 ~ 0.5): the ratios must be the renewal
-prediction within z_bound(3) of it (0.072 for the three runs; power 0.9 against a
-departure of 0.097, > 0.999 against the unbiased mapping B = m sigma_s/p or Dc = D0)."""
+RATIO_SEED_SD = 0.034
+"""Seed-to-seed sd of Dc/D0 and of B / (m sigma_s/p), seeds 1-10 (2026-11-27; 0.033 and
+0.034 pooled over the three runs of each; four seeds had given 0.02): the ratios must be
+the renewal prediction within z_bound(3) of it (0.122 for the three runs; power 0.9
+against a departure of 0.119, 0.98 against the unbiased B = m sigma_s/p, > 0.999 against
+Dc = D0). Measured means: Dc/D0 0.468, 0.504, 0.518 (prediction 0.494); B / (m
+sigma_s/p) 0.850, 0.869, 0.861 at m = 0.025, 0.05, 0.1 (prediction 0.858)."""
 
 
 VACT_EXTRAPOLATION_BIAS = 0.042
@@ -164,7 +168,7 @@ def test_fitted_dc_is_linear_in_d0(memory_fits, renewal_bias) -> None:
         f"Dc/D0 = {np.round(dc / d0, 3)} (renewal fit {predicted:.3f}), slope "
         f"{line.slope:.3f} +- {line.slope_stderr:.3f}"
     )
-    assert abs(line.slope - 1.0) < z_bound() * SLOPE_SEED_SD
+    assert abs(line.slope - 1.0) < z_bound() * SLOPE_SEED_SD["dc"]
     assert np.all(np.abs(dc / d0 - predicted) < z_bound(3) * RATIO_SEED_SD)
 
 
@@ -180,7 +184,7 @@ def test_fitted_b_is_linear_in_aging_m(ageing_fits, renewal_bias) -> None:
     predicted = renewal_bias[0]
     slope = f"{line.slope:.3f} +- {line.slope_stderr:.3f}"
     print(f"B / (m sigma_s/p) = {np.round(ratio, 3)} (renewal fit {predicted:.3f}), slope {slope}")
-    assert abs(line.slope - 1.0) < z_bound() * SLOPE_SEED_SD
+    assert abs(line.slope - 1.0) < z_bound() * SLOPE_SEED_SD["b"]
     assert np.all(np.abs(ratio - predicted) < z_bound(3) * RATIO_SEED_SD)
 
 

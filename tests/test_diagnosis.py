@@ -16,9 +16,10 @@ from scipy.stats import binom
 from typer.testing import CliRunner
 
 from nanoblock.cli import app
-from nanoblock.diagnosis import CATALOGUE, DiagnosisError, diagnose, load_for_diagnosis
+from nanoblock.diagnosis import CATALOGUE, DiagnosisError, core, diagnose, load_for_diagnosis
 from nanoblock.diagnosis.core import closed_base
 from nanoblock.diagnosis.resample import resample_by_travel
+from nanoblock.diagnosis.simulation import SEEDS, SWITCHES
 from nanoblock.diagnosis.statistics import blocked_folds, noise_level, runs_test, structure
 from nanoblock.diagnosis.surrogates import Measurement
 from nanoblock.diagnosis.validation import check_diagnosable
@@ -333,6 +334,27 @@ def test_simulation_check_runs_the_simulator_with_the_cause_switched_on() -> Non
     assert check["status"] == "ran" and check["extension"] == "state_velocity_cutoff"
     assert check["extended"]["systematic"] < 0.8 * check["base"]["systematic"]
     assert check["systematic_variance_removed"] > 0.3
+
+
+@pytest.mark.parametrize(("removed", "vetoed"), [((-0.1, 0.4), False), ((-0.1, -0.05), True)])
+def test_a_simulation_veto_needs_the_veto_seeds(monkeypatch, removed, vetoed) -> None:
+    """The check's outcome scripted (the simulator is not run): a check of SEEDS seeds in
+    which the extension fails is rerun with VETO_SEEDS seeds, and only that rerun refuses
+    the cause (the verdict then moves to the next supported extension)."""
+    asked = []
+
+    def scripted(*args, seeds: int, **kwargs) -> dict:
+        asked.append(seeds)
+        outcome = removed[len(asked) - 1] if len(asked) <= len(removed) else 1.0
+        return {"status": "ran", "systematic_variance_removed": outcome, "summary": "scripted"}
+
+    monkeypatch.setattr(core, "simulation_check", scripted)
+    data = time_series_case("state_velocity_cutoff", np.random.default_rng(3), NOISE["time_series"])
+    result = diagnose(data, simulate=True)
+    assert next(c.id for c in result.candidates if c.id in SWITCHES) == "state_velocity_cutoff"
+    assert asked[:2] == [SEEDS, core.VETO_SEEDS]
+    assert ("state_velocity_cutoff" in result.not_confirmed) == vetoed
+    assert (result.cause == "state_velocity_cutoff") != vetoed
 
 
 def test_simulation_check_switches_on_a_second_contact_population() -> None:

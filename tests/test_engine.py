@@ -294,11 +294,15 @@ def test_a_runaway_slip_converges_to_the_event_by_event_reference() -> None:
     athermal cap and the slider slides ~3.7 um before the spring arrests it. Against the
     event-by-event reference (the slider rebalanced after every depinning; 12 seeds with
     the same initial states): the same seeds run away, and the friction the slider is
-    arrested at converges to the reference's as the step shrinks. The paired error falls
-    from rho~_max / 8 (the default) to / 128 beyond z_bound(2) standard errors and at / 128
-    is within z_bound(2) standard errors of zero. Measured (7 seeds run away): -1.4e-3
-    (1 % of the 0.14 drop) at / 8, -0.9e-3 at / 32, -0.3e-3 (SE 0.14e-3) at / 128; a cap
-    1e5 times lower gave the same arrest at / 8 (it sets only the slide's duration)."""
+    arrested at converges to the reference's as the step shrinks. Paired over the seeds
+    that run away (level 1e-3 over the two comparisons): the arrest moves between rho~_max
+    / 8 (the default) and / 128 by more than z_bound(2) standard errors, and at / 128 its
+    error is within z_bound(2) standard errors of zero. Measured (7 seeds, 2026-11-27):
+    errors -1.6e-3 (1 % of the 0.14 drop) at / 8, -0.08e-3 +- 0.31e-3 at / 128, a shift
+    of -1.53e-3 +- 0.14e-3; power 0.91 against an error at / 128 as large as the
+    default's. (The seed-to-seed scatter of the arrest, ~0.8e-3, exceeds the step's
+    error: the unsigned |error| fell by only 2.5 standard errors.) A cap 1e5 times lower
+    gave the same arrest at / 8 (it sets only the slide's duration)."""
     reference = {
         int(k): np.array(v) for k, v in json.loads(RUNAWAY_FILE.read_text())["curves"].items()
     }
@@ -312,9 +316,8 @@ def test_a_runaway_slip_converges_to_the_event_by_event_reference() -> None:
             errors.append([default[-1] - expected[-1], fine[-1] - expected[-1]])
     errors = np.array(errors)
     assert len(errors) >= 5
-    gain = np.abs(errors[:, 0]) - np.abs(errors[:, 1])
-    spread = gain.std(ddof=1) / np.sqrt(len(gain))
-    assert gain.mean() > z_bound(2) * spread, (errors, gain)
+    shift = errors[:, 0] - errors[:, 1]
+    assert abs(shift.mean()) > z_bound(2) * shift.std(ddof=1) / np.sqrt(len(shift)), errors
     fine_error = errors[:, 1].std(ddof=1) / np.sqrt(len(errors))
     assert abs(errors[:, 1].mean()) < z_bound(2) * fine_error, errors
 

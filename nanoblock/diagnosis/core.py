@@ -22,7 +22,8 @@ least half of the base model's excess variance over the noise floor, and has eve
 parameter in its physical range (:mod:`.plausibility`). The cause is the supported
 extension with the lowest IC (on time series: with the best forecast, which a decimated
 record keeps) that the simulation check, where it runs, does not contradict (switching the
-extension on must lower the simulation's systematic misfit); without one, the answer is
+extension on must lower the simulation's systematic misfit; a veto needs ``VETO_SEEDS``
+seeds, as two seeds' noise can flip the sign); without one, the answer is
 ``none`` when the base residuals are within noise and without structure, and
 ``unexplained`` otherwise.
 """
@@ -44,7 +45,7 @@ from nanoblock.diagnosis.catalogue import BASE, CATALOGUE, CLOSURES, Effect, Sur
 from nanoblock.diagnosis.drops import StickSlip, find_stick_slip
 from nanoblock.diagnosis.plausibility import implausible
 from nanoblock.diagnosis.resample import resample_by_travel
-from nanoblock.diagnosis.simulation import SWITCHES, simulation_check
+from nanoblock.diagnosis.simulation import SEEDS, SWITCHES, simulation_check
 from nanoblock.diagnosis.statistics import (
     COLOURED,
     Structure,
@@ -68,6 +69,12 @@ when its own residuals still show structure."""
 SIMULATION_TRIES = 2
 """Supported extensions checked by simulation, best first, before the verdict is
 ``unexplained``."""
+VETO_SEEDS = 6
+"""Seeds per interface a veto needs: a check with
+:data:`~nanoblock.diagnosis.simulation.SEEDS` seeds in which the extension does not lower
+the simulated misfit is rerun with this many before the cause is refused. Measured on
+p655 100 MPa 23 -> 229 um/s (two_state_variable): seed pairs 0-1, 2-3, ..., 8-9 remove
+-9, 67, 51, 51, 32 % of the systematic variance, seeds 0-3 46 %, seeds 0-5 46 %."""
 
 
 @dataclass
@@ -540,7 +547,8 @@ def diagnose(
     the candidate models on that many processes (the result does not depend on it).
     ``simulate`` runs the simulation check (:mod:`nanoblock.diagnosis.simulation`) on the
     supported extensions (best first, at most ``SIMULATION_TRIES``) and accepts a cause
-    only if switching it on does not make the simulated misfit worse; with no supported
+    unless switching it on fails to lower the simulated misfit with ``VETO_SEEDS`` seeds
+    (a check of ``SEEDS`` that fails is rerun with them); with no supported
     extension it checks the best one, for the report. ``closure``: of the time-series
     base and extensions (:func:`closed_base`): ``"aging"``, ``"renewal"``, ``"auto"``,
     the one whose base fits better, or ``"best"``: a full pass in each, and the verdict of
@@ -607,6 +615,8 @@ def diagnose(
         if len(diagnosis.not_confirmed) == SIMULATION_TRIES:
             break
         check = _simulate(data, base, candidate, progress)
+        if check["status"] == "ran" and check["systematic_variance_removed"] <= 0.0:
+            check = _simulate(data, base, candidate, progress, seeds=VETO_SEEDS)
         diagnosis.simulation_check = check
         if check["status"] != "ran" or check["systematic_variance_removed"] > 0.0:
             diagnosis.cause = candidate.id
@@ -619,14 +629,20 @@ def diagnose(
 
 
 def _simulate(
-    data: xr.Dataset, base: Candidate, other: Candidate | None, progress: bool
+    data: xr.Dataset,
+    base: Candidate,
+    other: Candidate | None,
+    progress: bool,
+    seeds: int = SEEDS,
 ) -> dict[str, Any]:
-    """The simulation check of ``other`` (None: no extension) against the base."""
+    """The simulation check of ``other`` (None: no extension) against the base, ``seeds``
+    runs of each interface."""
     return simulation_check(
         data,
         base.fit.params,
         None if other is None else other.id,
         {} if other is None else other.fit.params,
         laws=(base.fit.law, (base if other is None else other).fit.law),
+        seeds=seeds,
         progress=progress,
     )
