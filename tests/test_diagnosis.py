@@ -3,6 +3,7 @@ the command line, and hidden effects found in data made by other code paths."""
 
 from __future__ import annotations
 
+import functools
 import inspect
 import json
 import math
@@ -336,25 +337,51 @@ def test_simulation_check_runs_the_simulator_with_the_cause_switched_on() -> Non
     assert check["systematic_variance_removed"] > 0.3
 
 
-@pytest.mark.parametrize(("removed", "vetoed"), [((-0.1, 0.4), False), ((-0.1, -0.05), True)])
+@pytest.mark.parametrize(
+    ("removed", "vetoed"),
+    [((-0.1, 0.4), False), ((-0.1, -0.05), True), (("refused",), True)],
+)
 def test_a_simulation_veto_needs_the_veto_seeds(monkeypatch, removed, vetoed) -> None:
     """The check's outcome scripted (the simulator is not run): a check of SEEDS seeds in
     which the extension fails is rerun with VETO_SEEDS seeds, and only that rerun refuses
-    the cause (the verdict then moves to the next supported extension)."""
+    the cause; a check that cannot build the extension's interface while it builds the
+    base's (status "refused") refuses it at once. A refused cause is listed as not
+    confirmed and the verdict moves to the next supported extension."""
     asked = []
 
     def scripted(*args, seeds: int, **kwargs) -> dict:
         asked.append(seeds)
         outcome = removed[len(asked) - 1] if len(asked) <= len(removed) else 1.0
+        if outcome == "refused":
+            return {"status": "refused", "summary": "scripted"}
         return {"status": "ran", "systematic_variance_removed": outcome, "summary": "scripted"}
 
     monkeypatch.setattr(core, "simulation_check", scripted)
     data = time_series_case("state_velocity_cutoff", np.random.default_rng(3), NOISE["time_series"])
     result = diagnose(data, simulate=True)
     assert next(c.id for c in result.candidates if c.id in SWITCHES) == "state_velocity_cutoff"
-    assert asked[:2] == [SEEDS, core.VETO_SEEDS]
+    assert asked[: len(removed)] == [SEEDS, core.VETO_SEEDS][: len(removed)]
     assert ("state_velocity_cutoff" in result.not_confirmed) == vetoed
     assert (result.cause == "state_velocity_cutoff") != vetoed
+
+
+def test_an_extension_the_simulator_cannot_make_is_refused_not_skipped() -> None:
+    """A two-state fit whose slow state ages the contacts beyond their friction (b2 = 0.05
+    over D_c2 = 8 mm: m <ln(1 + phi / tau_m)> = 1.38 >= 1) while the base calibrates: the
+    check says "refused" with the reason (it used to say "not_run", which vetoed nothing);
+    with a base that cannot calibrate either it says "not_run"."""
+    from nanoblock.diagnosis.simulation import simulation_check
+
+    data = _step_record()
+    base = {"mu0": 0.6, "a": 0.01, "b": 0.013, "dc": 2e-5, "v0": 1e-6, "stiffness": 2500.0}
+    fit = {**base, "b": 0.011, "b2": 0.05, "dc2": 8e-3}
+    check = simulation_check(data, base, "two_state_variable", fit, n_contacts=60)
+    assert check["status"] == "refused"
+    assert "cannot be simulated while the base fit can" in check["summary"]
+    assert "leaves no friction for the fresh contacts" in check["summary"]
+    unmade = {**base, "b": 0.2, "dc": 8e-3}
+    check = simulation_check(data, unmade, "two_state_variable", {**fit, **unmade})
+    assert check["status"] == "not_run" and "leaves no friction" in check["reason"]
 
 
 def test_simulation_check_switches_on_a_second_contact_population() -> None:
@@ -433,6 +460,36 @@ def test_simulation_check_does_not_depend_on_how_many_runs_go_at_once() -> None:
     for name in ("base", "extended"):
         assert checks[0][name] == checks[1][name]
         assert checks[0][name]["simulation_noise"] > 0.0
+
+
+def test_a_rerun_with_more_seeds_simulates_only_the_new_ones(monkeypatch) -> None:
+    """The veto's rerun: a six-seed check given the two-seed check's cache runs 2 x 4 new
+    simulations (not 2 x 6) and returns exactly the misfits of a fresh six-seed check."""
+    from nanoblock.diagnosis import simulation
+
+    data = _step_record()
+    base = {"mu0": 0.6, "a": 0.01, "b": 0.013, "dc": 2e-5, "v0": 1e-6, "stiffness": 2500.0}
+    fit = {**base, "b": 0.011, "b2": 0.002, "dc2": 1e-4}
+    runs = []
+    friction_at = simulation.friction_at
+
+    def counted(scenario, *args, **kwargs):
+        runs.append(scenario.run.seed)
+        return friction_at(scenario, *args, **kwargs)
+
+    monkeypatch.setattr(simulation, "friction_at", counted)
+    check = functools.partial(
+        simulation.simulation_check, data, base, "two_state_variable", fit, n_contacts=60
+    )
+    cache: dict = {}
+    check(seeds=2, cache=cache)
+    assert sorted(runs) == [0, 0, 1, 1]
+    runs.clear()
+    rerun = check(seeds=6, cache=cache)
+    assert sorted(runs) == [2, 2, 3, 3, 4, 4, 5, 5]
+    fresh = check(seeds=6)
+    for name in ("base", "extended"):
+        assert rerun[name] == fresh[name]
 
 
 def test_an_extension_whose_fit_fails_is_reported_not_raised(monkeypatch) -> None:

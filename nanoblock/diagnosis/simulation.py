@@ -533,14 +533,19 @@ def simulation_check(
     seeds: int = SEEDS,
     progress: bool = False,
     workers: int | None = None,
+    cache: dict[tuple[str, bytes], FloatArray] | None = None,
 ) -> dict[str, Any]:
     """Simulate the data's protocol with the base interface and with ``extension``
     switched on, each with ``seeds`` seeds from ``seed``; ``laws``: the RSF laws of the
     base and extension fits (their memory lengths map to D0 by :func:`memory_length`).
     The misfit of each against the data (``status`` ``"ran"``, with the wall ``seconds``
-    the simulations took) or why the check cannot run (``"not_run"``). ``workers``:
+    the simulations took), why the extension's fit has no interface while the base's has
+    (``"refused"``: the simulator cannot make that cause, so it is not confirmed) or why
+    the check cannot run (``"not_run"``). ``workers``:
     simulations run at once (default :func:`concurrent_runs`); the result does not depend
-    on it.
+    on it. ``cache``: the caller's store of simulated frictions, keyed by the run's
+    scenario (seed included) and record times; runs found there are not simulated again,
+    so a rerun with more seeds simulates only the new ones.
 
     The interfaces are built by the mapping (:class:`Targets`, :func:`finished`); the
     friction level is matched to each run by the mean difference, so the misfit measures
@@ -562,16 +567,35 @@ def simulation_check(
     stiffness = float(base_params[STIFFNESS])
     noise = noise_level([r.mu for r in prepared])
     started = time.perf_counter()
-    built: list[Interfaces] = []
+
+    per_run = list(zip(prepared, stiffness_scales(data, prepared), strict=True))
+    options = {"n_contacts": n_contacts, "seed": seed}
+
+    def build(switched: str | None) -> list[Interfaces]:
+        return [
+            _interfaces(
+                run,
+                stiffness * scale,
+                temperature,
+                base_params,
+                switched,
+                extension_params,
+                reference_force,
+                laws,
+                **options,
+            )
+            for run, scale in per_run
+        ]
+
     try:
-        for run, per_run in zip(prepared, stiffness_scales(data, prepared), strict=True):
-            interfaces = _interfaces(
-                run, stiffness * per_run, temperature, base_params, extension,
-                extension_params, reference_force, laws, n_contacts=n_contacts, seed=seed,
-            )  # fmt: skip
-            built.append(interfaces)
+        built = build(extension)
     except CalibrationError as error:
-        return {"status": "not_run", "reason": str(error)}
+        try:
+            build(None)
+        except CalibrationError:
+            return {"status": "not_run", "reason": str(error)}
+        why = f"the {extension} fit cannot be simulated while the base fit can: {error}"
+        return {"status": "refused", "extension": extension, "reason": why, "summary": why}
     keys = [(r, name, i) for r in range(len(built)) for name in NAMES for i in range(seeds)]
     jobs = [
         (
@@ -580,9 +604,12 @@ def simulation_check(
         )
         for r, name, i in keys
     ]
-    frictions = dict(
-        zip(keys, _frictions(jobs, concurrent_runs(len(jobs), workers), progress), strict=True)
-    )
+    cache = {} if cache is None else cache
+    stored = [(scenario.resolved_json(), times.tobytes()) for scenario, times in jobs]
+    todo = [k for k, key in enumerate(stored) if key not in cache]
+    simulated = _frictions([jobs[k] for k in todo], concurrent_runs(len(todo), workers), progress)
+    cache.update(zip([stored[k] for k in todo], simulated, strict=True))
+    frictions = {key: cache[k] for key, k in zip(keys, stored, strict=True)}
     misfits = {
         name: [
             _misfit([frictions[r, name, i] for i in range(seeds)], run, noise)
