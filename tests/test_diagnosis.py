@@ -19,6 +19,7 @@ from typer.testing import CliRunner
 from nanoblock.cli import app
 from nanoblock.diagnosis import CATALOGUE, DiagnosisError, core, diagnose, load_for_diagnosis
 from nanoblock.diagnosis.core import closed_base
+from nanoblock.diagnosis.report import _closure_text, _summary
 from nanoblock.diagnosis.resample import resample_by_travel
 from nanoblock.diagnosis.simulation import SEEDS, SWITCHES
 from nanoblock.diagnosis.statistics import blocked_folds, noise_level, runs_test, structure
@@ -346,7 +347,8 @@ def test_a_simulation_veto_needs_the_veto_seeds(monkeypatch, removed, vetoed) ->
     which the extension fails is rerun with VETO_SEEDS seeds, and only that rerun refuses
     the cause; a check that cannot build the extension's interface while it builds the
     base's (status "refused") refuses it at once. A refused cause is listed as not
-    confirmed and the verdict moves to the next supported extension."""
+    confirmed and the verdict moves to the next supported extension; the report's first
+    paragraph and closure line say so."""
     asked = []
 
     def scripted(*args, seeds: int, **kwargs) -> dict:
@@ -363,6 +365,17 @@ def test_a_simulation_veto_needs_the_veto_seeds(monkeypatch, removed, vetoed) ->
     assert asked[: len(removed)] == [SEEDS, core.VETO_SEEDS][: len(removed)]
     assert ("state_velocity_cutoff" in result.not_confirmed) == vetoed
     assert (result.cause == "state_velocity_cutoff") != vetoed
+    if vetoed:  # the report's first paragraph and closure line say what was refused
+        refused = "not confirmed by the simulation: `state_velocity_cutoff`"
+        assert refused in _summary(result).lower()
+        result.closures = {
+            "aging": {"final": "state_velocity_cutoff", "law": "aging", "information_criterion": 1},
+            "renewal": {"final": "base", "law": "renewal", "information_criterion": 2},
+        }
+        assert (
+            "did not confirm its `state_velocity_cutoff`, so the verdict is that pass's next: "
+            f"`{result.cause}`" in _closure_text(result)[0]
+        )
 
 
 def test_an_extension_the_simulator_cannot_make_is_refused_not_skipped() -> None:

@@ -622,7 +622,8 @@ def diagnose(
         if check["status"] == "ran" and check["systematic_variance_removed"] <= 0.0:
             check = _simulate(data, base, candidate, progress, VETO_SEEDS, simulated)
         diagnosis.simulation_check = check
-        if check["status"] == "not_run" or check.get("systematic_variance_removed", 0.0) > 0.0:
+        status = check["status"]  # "refused": the simulator cannot make the fitted cause
+        if status == "not_run" or (status == "ran" and check["systematic_variance_removed"] > 0):
             diagnosis.cause = candidate.id
             break
         diagnosis.not_confirmed[candidate.id] = check["summary"]

@@ -165,9 +165,7 @@ def _summary(diagnosis: Diagnosis) -> str:
             "unexplained": "The base model leaves a systematic misfit that no catalogue "
             "extension removes with plausible parameters and a better forecast.",
         }[cause]
-        if diagnosis.not_confirmed:
-            text += " Not confirmed by the simulation: " + "; ".join(diagnosis.not_confirmed)
-        return text
+        return text + _not_confirmed(diagnosis, "Not confirmed by the simulation")
     fitted = diagnosis.extended.fit.params
     ratio = diagnosis.gain()["heldout_error_ratio"]
     forecast = f"it forecasts the held-out data {ratio:.2f} times better than the base model."
@@ -197,7 +195,19 @@ def _summary(diagnosis: Diagnosis) -> str:
     }
     effect = CATALOGUE[cause]
     opening = words[cause](fitted) if cause in words else f"The cause is that {effect.cause}; "
-    return opening + forecast
+    return (
+        opening
+        + forecast
+        + _not_confirmed(diagnosis, "Ranked above it but not confirmed by the simulation")
+    )
+
+
+def _not_confirmed(diagnosis: Diagnosis, opening: str) -> str:
+    """A sentence naming the causes the simulation check did not confirm ("" if none)."""
+    if not diagnosis.not_confirmed:
+        return ""
+    names = "; ".join(f"`{name}`" for name in diagnosis.not_confirmed)
+    return f" {opening}: {names} (see the simulation check)."
 
 
 def _noise_text(diagnosis: Diagnosis) -> list[str]:
@@ -225,9 +235,16 @@ def _closure_text(diagnosis: Diagnosis) -> list[str]:
     chosen = min(
         diagnosis.closures, key=lambda name: diagnosis.closures[name]["information_criterion"]
     )
+    final = diagnosis.closures[chosen]["final"]
+    refused = (
+        f" The simulation did not confirm its `{final}`, so the verdict is that pass's "
+        f"next: `{diagnosis.cause}`."
+        if final in diagnosis.not_confirmed
+        else ""
+    )
     return [
         f"Closure: both were run; {passes}. The verdict is the {chosen} closure's, whose "
-        "final model has the lower information criterion.",
+        f"final model has the lower information criterion.{refused}",
         "",
     ]
 

@@ -63,7 +63,7 @@ import time
 from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 import numba
 import numpy as np
@@ -406,6 +406,22 @@ def _interfaces(
     return Interfaces(scenarios, scales, run_in)
 
 
+Built = TypeVar("Built")
+
+
+def _calibrate(
+    build: Callable[[str | None], Built], extension: str | None
+) -> tuple[Built, str | None]:
+    """``build(extension)`` and None; or, when the extension's fit cannot be calibrated
+    while the base's can, ``build(None)`` and why. Raises the base's
+    :class:`CalibrationError` when neither can."""
+    try:
+        return build(extension), None
+    except CalibrationError as error:
+        built = build(None)
+        return built, f"the {extension} fit cannot be simulated while the base fit can: {error}"
+
+
 def calibrated_scenarios(
     data: xr.Dataset,
     base_params: Mapping[str, float],
@@ -424,19 +440,18 @@ def calibrated_scenarios(
     stiffness = float(base_params[STIFFNESS]) * stiffness_scales(data, [run])[0]
     temperature = float(data.attrs.get("temperature", ROOM_TEMPERATURE))
     reference = reference_load([run.normal_force], False)
-    missing = None
-    if extension is not None and extension not in SWITCHES:
-        missing = NOT_SIMULATED.get(extension, "not simulated")
     try:
-        built = _interfaces(
-            run, stiffness, temperature, base_params, extension, extension_params, reference, laws
-        )
+        built, missing = _calibrate(
+            lambda switched: _interfaces(
+                run, stiffness, temperature, base_params, switched, extension_params,
+                reference, laws,
+            ),
+            extension,
+        )  # fmt: skip
     except CalibrationError as error:
-        try:
-            built = _interfaces(run, stiffness, temperature, base_params, None, {}, reference, laws)
-        except CalibrationError as base_error:
-            return {}, f"no runnable scenario: {base_error}"
-        missing = f"the {extension} fit cannot be simulated: {error}"
+        return {}, f"no runnable scenario: {error}"
+    if missing is None and extension is not None and extension not in SWITCHES:
+        missing = NOT_SIMULATED.get(extension, "not simulated")
     scale, run_in = built.scales["base"], built.run_in["base"]
     note = (
         f"similarity scaling: every length and time x {scale:.4g} (velocities unchanged); "
@@ -588,14 +603,11 @@ def simulation_check(
         ]
 
     try:
-        built = build(extension)
+        built, refused = _calibrate(build, extension)
     except CalibrationError as error:
-        try:
-            build(None)
-        except CalibrationError:
-            return {"status": "not_run", "reason": str(error)}
-        why = f"the {extension} fit cannot be simulated while the base fit can: {error}"
-        return {"status": "refused", "extension": extension, "reason": why, "summary": why}
+        return {"status": "not_run", "reason": str(error)}
+    if refused is not None:
+        return {"status": "refused", "extension": extension, "reason": refused, "summary": refused}
     keys = [(r, name, i) for r in range(len(built)) for name in NAMES for i in range(seeds)]
     jobs = [
         (
