@@ -559,8 +559,8 @@ def diagnose(
         typer.Option(
             help="time series: base law's closure of the contacts' renewal: aging, renewal "
             "(the population without the aging closure, 2-5x the cost), auto (the one "
-            "whose base fits better) or best (both in full; the verdict whose final model "
-            "has the lower information criterion)"
+            "whose base fits better) or best (both in full, each with its own simulation "
+            "check; the verdict whose final model has the lower information criterion)"
         ),
     ] = "aging",  # nanoblock.diagnosis.core.DEFAULT_CLOSURE (not imported: start-up time)
 ) -> None:

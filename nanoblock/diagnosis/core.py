@@ -480,12 +480,18 @@ class _Closure:
     candidates: list[Candidate]
     failed: dict[str, str]
     supported: list[Candidate]
+    accepted: Candidate | None
+    """The cause this pass accepts: the supported extension that forecasts best, or after
+    :func:`_confirm` the best one the simulation check does not refuse (None: none)."""
+    not_confirmed: dict[str, str] = field(default_factory=dict)
+    """Supported extensions the simulation check refused, with why."""
+    simulation_check: dict[str, Any] = field(default_factory=dict)
+    """The last check :func:`_confirm` ran."""
 
     @property
     def final(self) -> Candidate:
-        """The model this pass ends with: the supported extension that forecasts best, or
-        the base."""
-        return self.supported[0] if self.supported else self.base
+        """The model this pass ends with: the accepted cause's, or the base."""
+        return self.accepted or self.base
 
 
 def _closure_pass(
@@ -509,14 +515,42 @@ def _closure_pass(
     supported = [c for c in candidates if _supported(c, scored["base"], noise.floor)]
     if measurement.kind == "time_series":  # the best forecast among the supported
         supported.sort(key=lambda c: c.heldout_error)
-    return _Closure(closure, noise, scored["base"], candidates, failed, supported)
+    accepted = supported[0] if supported else None
+    return _Closure(closure, noise, scored["base"], candidates, failed, supported, accepted)
+
+
+def _confirm(done: _Closure, data: xr.Dataset, progress: bool) -> None:
+    """The simulation check of the pass's supported extensions, best first: the first it
+    does not refuse is accepted (one without a simulator option needs none); a cause is
+    refused if switching it on fails to lower the simulated misfit with ``VETO_SEEDS``
+    seeds (a check of ``SEEDS`` that fails is rerun with them) or if its fit has no
+    interface while the base's has (status ``"refused"``). After ``SIMULATION_TRIES``
+    refusals none is accepted."""
+    done.accepted = None
+    for candidate in done.supported:
+        if candidate.id not in SWITCHES:
+            done.accepted = candidate
+            return
+        if len(done.not_confirmed) == SIMULATION_TRIES:
+            return
+        simulated: dict = {}  # the veto's rerun adds seeds to the first check's
+        check = _simulate(data, done.base, candidate, progress, cache=simulated)
+        if check["status"] == "ran" and check["systematic_variance_removed"] <= 0.0:
+            check = _simulate(data, done.base, candidate, progress, VETO_SEEDS, simulated)
+        done.simulation_check = check
+        status = check["status"]  # "refused": the simulator cannot make the fitted cause
+        if status == "not_run" or (status == "ran" and check["systematic_variance_removed"] > 0):
+            done.accepted = candidate
+            return
+        done.not_confirmed[candidate.id] = check["summary"]
 
 
 def _best_closure(passes: list[_Closure]) -> tuple[_Closure, dict[str, dict[str, Any]]]:
-    """The pass whose final model (base plus the cause it accepts) has the lowest
-    information criterion, all scored with the smallest effective sample size among the
-    passes' noise models (so the comparison does not depend on whose residuals measured
-    it), and each pass's final model, base law and criterion, for the report."""
+    """The pass whose final model (base plus the cause it accepts, after the simulation
+    check where it ran) has the lowest information criterion, all scored with the
+    smallest effective sample size among the passes' noise models (so the comparison does
+    not depend on whose residuals measured it), and each pass's final model, base law,
+    criterion and refused causes, for the report."""
     sizes = [p.noise.n_effective for p in passes if p.noise.n_effective is not None]
     n_effective = min(sizes) if sizes else None
     scores = {
@@ -528,6 +562,7 @@ def _best_closure(passes: list[_Closure]) -> tuple[_Closure, dict[str, dict[str,
             "final": p.final.id,
             "law": p.base.fit.law,
             "information_criterion": scores[p.closure],
+            "not_confirmed": list(p.not_confirmed),
         }
         for p in passes
     }
@@ -548,16 +583,14 @@ def diagnose(
     data that cannot support a diagnosis, saying what data would. ``workers`` > 1 fits
     the candidate models on that many processes (the result does not depend on it).
     ``simulate`` runs the simulation check (:mod:`nanoblock.diagnosis.simulation`) on the
-    supported extensions (best first, at most ``SIMULATION_TRIES``) and accepts a cause
-    unless switching it on fails to lower the simulated misfit with ``VETO_SEEDS`` seeds
-    (a check of ``SEEDS`` that fails is rerun with them) or its fit has no interface while
-    the base's has (status ``"refused"``); with no supported
-    extension it checks the best one, for the report. ``closure``: of the time-series
-    base and extensions (:func:`closed_base`): ``"aging"``, ``"renewal"``, ``"auto"``,
-    the one whose base fits better, or ``"best"``: a full pass in each, and the verdict of
-    the pass whose final model (base plus the cause it accepts) has the lower information
-    criterion (:func:`_best_closure`; twice the cost of one pass). The default:
-    :data:`DEFAULT_CLOSURE`.
+    supported extensions, best first, and accepts the first it does not refuse
+    (:func:`_confirm`); with no supported extension it checks the best one, for the
+    report. ``closure``: of the time-series base and extensions (:func:`closed_base`):
+    ``"aging"``, ``"renewal"``, ``"auto"``, the one whose base fits better, or ``"best"``:
+    a full pass in each (with ``simulate``, each pass's causes checked), and the verdict
+    of the pass whose final model (base plus the cause it accepts) has the lower
+    information criterion (:func:`_best_closure`; twice the cost of one pass). The
+    default: :data:`DEFAULT_CLOSURE`.
     """
     if workers < 1:
         raise ValueError(f"workers = {workers!r} is out of range [1, inf)")
@@ -588,16 +621,20 @@ def diagnose(
                 done = [_closure_pass(measurement, testable, name, runner) for name in passes]
         finally:
             runner.close()
+    if simulate and not stick_slip:
+        for each in done:
+            _confirm(each, data, progress)
     chosen, closures = _best_closure(done) if len(done) > 1 else (done[0], {})
     untestable.update(chosen.failed)
-    noise, base, supported = chosen.noise, chosen.base, chosen.supported
+    noise, base = chosen.noise, chosen.base
+    unaccepted = "unexplained" if base.structure.systematic else "none"
     diagnosis = Diagnosis(
         kind=measurement.kind,
         noise=noise.level,
         base=base,
         candidates=chosen.candidates,
         untestable=untestable,
-        cause="unexplained" if base.structure.systematic else "none",
+        cause=unaccepted if chosen.accepted is None else chosen.accepted.id,
         trends=_trends(base.residuals, measurement.covariates),
         observed=measurement.observed,
         covariates=measurement.covariates,
@@ -605,28 +642,14 @@ def diagnose(
         noise_model={**noise.to_json(), "samples": int(data.attrs.get("resampled_from", 0))},
         stick_slip=stick_slip,
         closures=closures,
+        simulation_check=chosen.simulation_check,
+        not_confirmed=chosen.not_confirmed,
     )
     if measurement.kind == "time_series":
         diagnosis.window_study = window_study(data)
     if stick_slip:
         diagnosis.cause = "unstable_sliding"
         return diagnosis
-    for candidate in supported:
-        if not simulate or candidate.id not in SWITCHES:
-            diagnosis.cause = candidate.id
-            break
-        if len(diagnosis.not_confirmed) == SIMULATION_TRIES:
-            break
-        simulated: dict = {}  # the veto's rerun adds seeds to the first check's
-        check = _simulate(data, base, candidate, progress, cache=simulated)
-        if check["status"] == "ran" and check["systematic_variance_removed"] <= 0.0:
-            check = _simulate(data, base, candidate, progress, VETO_SEEDS, simulated)
-        diagnosis.simulation_check = check
-        status = check["status"]  # "refused": the simulator cannot make the fitted cause
-        if status == "not_run" or (status == "ran" and check["systematic_variance_removed"] > 0):
-            diagnosis.cause = candidate.id
-            break
-        diagnosis.not_confirmed[candidate.id] = check["summary"]
     if simulate and not diagnosis.simulation_check:
         other = diagnosis.extended or diagnosis.best
         diagnosis.simulation_check = _simulate(data, base, other, progress)

@@ -227,24 +227,22 @@ def _closure_text(diagnosis: Diagnosis) -> list[str]:
     """With ``--closure best``: which closure's pass gave the verdict, and why."""
     if not diagnosis.closures:
         return []
+
+    def refused(entry: dict[str, Any]) -> str:
+        names = ", ".join(f"`{name}`" for name in entry.get("not_confirmed", []))
+        return f" (the simulation did not confirm {names})" if names else ""
+
     passes = ", ".join(
-        f"{name} (base law `{entry['law']}`) ends with `{entry['final']}` at IC "
-        f"{entry['information_criterion']:.1f}"
+        f"{name} (base law `{entry['law']}`) ends with `{entry['final']}`{refused(entry)} "
+        f"at IC {entry['information_criterion']:.1f}"
         for name, entry in diagnosis.closures.items()
     )
     chosen = min(
         diagnosis.closures, key=lambda name: diagnosis.closures[name]["information_criterion"]
     )
-    final = diagnosis.closures[chosen]["final"]
-    refused = (
-        f" The simulation did not confirm its `{final}`, so the verdict is that pass's "
-        f"next: `{diagnosis.cause}`."
-        if final in diagnosis.not_confirmed
-        else ""
-    )
     return [
         f"Closure: both were run; {passes}. The verdict is the {chosen} closure's, whose "
-        f"final model has the lower information criterion.{refused}",
+        "final model has the lower information criterion.",
         "",
     ]
 
