@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 COHORT = 0.02
@@ -62,13 +63,49 @@ class Renewal:
         return v / (v + self.v_theta) if self.v_theta else 1.0
 
 
+@numba.njit(cache=True)
+def _state(
+    clock: float,
+    began: np.ndarray,
+    ended: np.ndarray,
+    birth_time: np.ndarray,
+    tau_m: float,
+    slip_like: bool,
+    survivors: np.ndarray,
+) -> float:
+    """sum_i survivors_i A_i over the cohorts (see :class:`_Cohorts`): a cohort's log area
+    A_i is ln(1 + u / tau_m) averaged over ages u spread evenly between its youngest and
+    oldest contact (slip_like: fixed at birth). Walked from the youngest cohort, whose
+    oldest age is the next older cohort's youngest when one began as the other ended."""
+    total = 0.0
+    shared, shared_at = 0.0, math.nan  # the primitive at the last cohort's oldest age
+    for i in range(began.size - 1, -1, -1):
+        if slip_like:
+            area = math.log1p(birth_time[i] / tau_m)
+        else:
+            old = max(clock - began[i], 0.0) / tau_m
+            young = max(clock - ended[i], 0.0) / tau_m
+            if ended[i] == shared_at:
+                primitive_young = shared
+            else:
+                primitive_young = (1.0 + young) * math.log1p(young) - young
+            log_old = math.log1p(old)
+            shared, shared_at = (1.0 + old) * log_old - old, began[i]
+            area = (shared - primitive_young) / (old - young) if old - young > 1e-9 else log_old
+        total += survivors[i] * area
+    return total
+
+
 class _Cohorts:
     """Contacts grouped by birth: start slip x, slip width w, the clock when the cohort
-    began (c) and ended (e), birth contact time g (used by ``slip_like``)."""
+    began (c) and ended (e), birth contact time g (used by ``slip_like``); per population
+    the survivors relative to slip ``reference`` (exact for exponential survival over the
+    cohort's slip), rebased every shortest D of slip."""
 
     def __init__(self, p: Renewal, v_start: float) -> None:
         self.p = p
-        span = HISTORY * max(d for _, d in p.populations)
+        self.coefficients, self.lengths = (np.array(v) for v in zip(*p.populations, strict=True))
+        span = HISTORY * self.lengths.max()
         width = COHORT * p.d0
         self.x = np.arange(-span, 0.0, width)
         self.w = np.full(self.x.size, width)
@@ -76,24 +113,25 @@ class _Cohorts:
         self.c = self.x / v_start * rate
         self.e = self.c + width / v_start * rate
         self.g = np.full(self.x.size, p.d0 / v_start)
+        self.reference = 0.0
+        self.factors = self._factors(slice(None))
+
+    def _factors(self, cohorts: slice) -> np.ndarray:
+        """(populations, cohorts): e^{-(reference - end) / D_p} (1 - e^{-w / D_p}), the
+        survivors of each cohort at slip ``reference`` (exact for exponential survival
+        over the cohort's slip)."""
+        end, w = self.x[cohorts] + self.w[cohorts], self.w[cohorts]
+        d = self.lengths[:, None]
+        return np.exp(-(self.reference - end) / d) * -np.expm1(-w / d)
 
     def state(self, x: float, clock: float) -> float:
         """sum_p b_p S_p: mean log area of each population at slip x and clock value."""
-        p = self.p
-        if p.slip_like:
-            area = np.log1p(self.g / p.tau_m)
-        else:  # ln(1 + u / tau_m) averaged over ages u spread evenly in [clock - e, clock - c]
-            old, young = (np.maximum(clock - c, 0.0) / p.tau_m for c in (self.c, self.e))
-            spread = np.maximum(old - young, 1e-9)
-            primitive = [(1.0 + u) * np.log1p(u) - u for u in (old, young)]
-            area = np.where(
-                old - young > 1e-9, (primitive[0] - primitive[1]) / spread, np.log1p(old)
-            )
-        total = 0.0
-        for b, d in p.populations:
-            weight = np.exp(-(x - self.x - self.w) / d) * -np.expm1(-self.w / d)
-            total += b * float(np.dot(weight, area))
-        return total
+        if x - self.reference > self.lengths.min():
+            self.reference = x
+            self.factors = self._factors(slice(None))
+        shift = self.coefficients * np.exp(-(x - self.reference) / self.lengths)
+        survivors = shift @ self.factors
+        return _state(clock, self.c, self.e, self.g, self.p.tau_m, self.p.slip_like, survivors)
 
     def grow(self, x_old: float, x_new: float, begun: float, clock: float, v: float) -> None:
         """Slip x_old -> x_new (clock ``begun`` -> ``clock``) joins the youngest cohort, or
@@ -103,17 +141,20 @@ class _Cohorts:
         if self.w[-1] < COHORT * self.p.d0 and self.x[-1] + self.w[-1] >= x_old - 1e-30:
             self.w[-1] += x_new - x_old
             self.e[-1] = clock
+            self.factors[:, -1:] = self._factors(slice(-1, None))
             return
         self.x = np.append(self.x, x_old)
         self.w = np.append(self.w, x_new - x_old)
         self.c = np.append(self.c, begun)
         self.e = np.append(self.e, clock)
         self.g = np.append(self.g, self.p.d0 / v)
-        alive = x_new - self.x < HISTORY * max(d for _, d in self.p.populations)
+        self.factors = np.hstack([self.factors, self._factors(slice(-1, None))])
+        alive = x_new - self.x < HISTORY * self.lengths.max()
         if not alive[0]:
             self.x, self.w, self.c, self.e, self.g = (
                 a[alive] for a in (self.x, self.w, self.c, self.e, self.g)
             )
+            self.factors = self.factors[:, alive]
 
 
 def _implicit_log_velocity(a: float, gain: float, rest: float) -> float:
