@@ -12,11 +12,11 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import subprocess
 import sys
-import time
 from pathlib import Path
+
+from host import describe
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -210,16 +210,11 @@ def main() -> None:
     results["stiffness_table_1_thread"] = stiffness_table(scale, record)
     if not args.table:
         throughput(scale, record, results)
-    machine = (
-        f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-        f"Python {platform.python_version()}"
-    )
-    print(f"Machine: {machine}, load averages {os.getloadavg()} before the last run\n")
+    host = describe()
+    print(f"Machine: {host['machine']}, load averages {host['load_averages']} after the runs\n")
     print("| measurement | value | target |\n|---|---|---|")
     print("\n".join(rows))
-    results["machine"] = machine
-    results["load_averages"] = os.getloadavg()
-    results["timestamp"] = time.strftime("%Y-%m-%d %H:%M")
+    results |= host
     path = ROOT / "benchmarks" / "results_core.json"
     stored = json.loads(path.read_text()) if path.exists() else {}
     if args.table:  # the throughput rows of the last full run stay

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 import xarray as xr
+from host import describe
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -87,6 +88,7 @@ def main() -> None:
         "target_seconds": TARGET_SECONDS,
         "closure": closure,
         "results": results,
+        "host": describe(),
     }
     suffix = "" if closure == DEFAULT_CLOSURE else f"_{closure}"
     path = ROOT / "benchmarks" / f"results_diagnosis{suffix}.json"

@@ -26,6 +26,8 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict
 from pathlib import Path
 
+from host import describe
+
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
@@ -65,6 +67,7 @@ def main() -> None:
         "visible_chi2": VISIBLE_CHI2,
         "closure": closure,
         "planned_cases": len(matrix),
+        "host": describe(),
     }
     results, earlier = _resumed(out.with_suffix(".json"), header, "--resume" in options)
     if earlier:

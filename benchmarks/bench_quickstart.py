@@ -26,6 +26,8 @@ import time
 import tomllib
 from pathlib import Path
 
+from host import describe
+
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
@@ -109,6 +111,7 @@ def main() -> None:
         results[f"{name}compile"] = results[f"{name}cold"]["wall"] - results[f"{name}warm"]["wall"]
     results["timestamp"] = time.strftime("%Y-%m-%d %H:%M")
     results["cpu_count"] = os.cpu_count()
+    results["host"] = describe()
     (ROOT / "benchmarks" / "results_quickstart.json").write_text(json.dumps(results, indent=2))
 
 

@@ -18,6 +18,7 @@ from datetime import date
 from pathlib import Path
 
 import numpy as np
+from host import describe
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -48,7 +49,12 @@ def main() -> None:
                 "cpu_seconds": time.process_time() - started,
             })  # fmt: skip
             print(rows[-1], flush=True)
-    out = {"date": date.today().isoformat(), "machine": platform.platform(), "fits": rows}
+    out = {
+        "date": date.today().isoformat(),
+        "machine": platform.platform(),
+        "fits": rows,
+        "host": describe(),
+    }
     target = ROOT / "benchmarks" / "results_renewal_lab.json"
     target.write_text(json.dumps(out, indent=1) + "\n")
 

@@ -16,10 +16,10 @@ from __future__ import annotations
 import json
 import platform
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
+from host import best_of, describe
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -37,16 +37,6 @@ SEGMENTS = [(1e-6, 30.0), (1e-5, 10.0), (1e-6, 60.0), (1e-5, 10.0), (1e-4, 2.0)]
 DATA = ROOT.parent / "shared" / "data"
 
 
-def best_of(function, repeats: int = 5) -> float:
-    """Shortest wall time of ``repeats`` calls [s]."""
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - start)
-    return min(times)
-
-
 def main() -> None:
     times = np.linspace(0.0, sum(d for _, d in SEGMENTS), 5000)
     history = LoadPointHistory.from_segments(SEGMENTS)
@@ -56,12 +46,14 @@ def main() -> None:
     results = {
         "machine": f"{platform.processor() or platform.machine()}, {platform.python_version()}",
         "forward_5_steps_nanoblock_s": best_of(
-            lambda: solve_slider(law("aging"), PARAMS, history, times, STIFFNESS, rtol=1e-10)
+            lambda: solve_slider(law("aging"), PARAMS, history, times, STIFFNESS, rtol=1e-10),
+            repeats=5,
         ),
         "forward_5_steps_usual_odeint_s": best_of(
             lambda: naive_slider(
                 "aging", PARAMS, SEGMENTS, times, STIFFNESS, solver="odeint", rtol=1e-10
-            )
+            ),
+            repeats=5,
         ),
         "forward_error_nanoblock_vs_radau": float(np.max(np.abs(ours - radau))),
         "forward_error_usual_odeint_vs_radau": float(np.max(np.abs(usual - radau))),
@@ -78,6 +70,7 @@ def main() -> None:
         )
     for key, value in results.items():
         print(f"{key:<48} {value:.4g}" if isinstance(value, float) else f"{key:<48} {value}")
+    results["host"] = describe()
     (ROOT / "benchmarks" / "results_rsf.json").write_text(json.dumps(results, indent=2) + "\n")
 
 

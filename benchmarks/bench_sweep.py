@@ -54,6 +54,7 @@ from pathlib import Path
 
 import numpy as np
 import psutil
+from host import describe
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -379,6 +380,7 @@ def main() -> None:
     results["machine"] = machine
     results["one-minute load average"] = loads
     results["timestamp"] = time.strftime("%Y-%m-%d %H:%M")
+    results["host"] = describe()
     if not args.quick:
         (ROOT / "benchmarks" / "results_sweep.json").write_text(json.dumps(results, indent=2))
 

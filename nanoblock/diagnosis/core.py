@@ -480,13 +480,12 @@ class _Closure:
     candidates: list[Candidate]
     failed: dict[str, str]
     supported: list[Candidate]
-    accepted: Candidate | None
-    """The cause this pass accepts: the supported extension that forecasts best, or after
-    :func:`_confirm` the best one the simulation check does not refuse (None: none)."""
+    accepted: Candidate | None = None
+    """The cause this pass accepts (None: none), set by :func:`_accept`."""
     not_confirmed: dict[str, str] = field(default_factory=dict)
     """Supported extensions the simulation check refused, with why."""
     simulation_check: dict[str, Any] = field(default_factory=dict)
-    """The last check :func:`_confirm` ran."""
+    """The last check :func:`_accept` ran."""
 
     @property
     def final(self) -> Candidate:
@@ -515,20 +514,18 @@ def _closure_pass(
     supported = [c for c in candidates if _supported(c, scored["base"], noise.floor)]
     if measurement.kind == "time_series":  # the best forecast among the supported
         supported.sort(key=lambda c: c.heldout_error)
-    accepted = supported[0] if supported else None
-    return _Closure(closure, noise, scored["base"], candidates, failed, supported, accepted)
+    return _Closure(closure, noise, scored["base"], candidates, failed, supported)
 
 
-def _confirm(done: _Closure, data: xr.Dataset, progress: bool) -> None:
-    """The simulation check of the pass's supported extensions, best first: the first it
-    does not refuse is accepted (one without a simulator option needs none); a cause is
-    refused if switching it on fails to lower the simulated misfit with ``VETO_SEEDS``
-    seeds (a check of ``SEEDS`` that fails is rerun with them) or if its fit has no
-    interface while the base's has (status ``"refused"``). After ``SIMULATION_TRIES``
-    refusals none is accepted."""
-    done.accepted = None
+def _accept(done: _Closure, data: xr.Dataset, simulate: bool, progress: bool) -> None:
+    """Set the cause the pass accepts: its best supported extension, or with ``simulate``
+    the best one the simulation check does not refuse (one without a simulator option
+    needs none). A cause is refused if switching it on fails to lower the simulated misfit
+    with ``VETO_SEEDS`` seeds (a check of ``SEEDS`` that fails is rerun with them) or if
+    its fit has no interface while the base's has (status ``"refused"``). After
+    ``SIMULATION_TRIES`` refusals none is accepted."""
     for candidate in done.supported:
-        if candidate.id not in SWITCHES:
+        if not simulate or candidate.id not in SWITCHES:
             done.accepted = candidate
             return
         if len(done.not_confirmed) == SIMULATION_TRIES:
@@ -584,7 +581,7 @@ def diagnose(
     the candidate models on that many processes (the result does not depend on it).
     ``simulate`` runs the simulation check (:mod:`nanoblock.diagnosis.simulation`) on the
     supported extensions, best first, and accepts the first it does not refuse
-    (:func:`_confirm`); with no supported extension it checks the best one, for the
+    (:func:`_accept`); with no supported extension it checks the best one, for the
     report. ``closure``: of the time-series base and extensions (:func:`closed_base`):
     ``"aging"``, ``"renewal"``, ``"auto"``, the one whose base fits better, or ``"best"``:
     a full pass in each (with ``simulate``, each pass's causes checked), and the verdict
@@ -621,9 +618,8 @@ def diagnose(
                 done = [_closure_pass(measurement, testable, name, runner) for name in passes]
         finally:
             runner.close()
-    if simulate and not stick_slip:
-        for each in done:
-            _confirm(each, data, progress)
+    for each in done:
+        _accept(each, data, simulate and not stick_slip, progress)
     chosen, closures = _best_closure(done) if len(done) > 1 else (done[0], {})
     untestable.update(chosen.failed)
     noise, base = chosen.noise, chosen.base

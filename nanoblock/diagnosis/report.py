@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -206,8 +207,12 @@ def _not_confirmed(diagnosis: Diagnosis, opening: str) -> str:
     """A sentence naming the causes the simulation check did not confirm ("" if none)."""
     if not diagnosis.not_confirmed:
         return ""
-    names = "; ".join(f"`{name}`" for name in diagnosis.not_confirmed)
-    return f" {opening}: {names} (see the simulation check)."
+    return f" {opening}: {_names(diagnosis.not_confirmed)} (see the simulation check)."
+
+
+def _names(ids: Iterable[str]) -> str:
+    """Catalogue ids in backticks, comma-separated."""
+    return ", ".join(f"`{name}`" for name in ids)
 
 
 def _noise_text(diagnosis: Diagnosis) -> list[str]:
@@ -229,7 +234,7 @@ def _closure_text(diagnosis: Diagnosis) -> list[str]:
         return []
 
     def refused(entry: dict[str, Any]) -> str:
-        names = ", ".join(f"`{name}`" for name in entry.get("not_confirmed", []))
+        names = _names(entry.get("not_confirmed", []))
         return f" (the simulation did not confirm {names})" if names else ""
 
     passes = ", ".join(
