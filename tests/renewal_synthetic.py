@@ -100,21 +100,37 @@ class _Cohorts:
     """Contacts grouped by birth: start slip x, slip width w, the clock when the cohort
     began (c) and ended (e), birth contact time g (used by ``slip_like``); per population
     the survivors relative to slip ``reference`` (exact for exponential survival over the
-    cohort's slip), rebased every shortest D of slip."""
+    cohort's slip), rebased every shortest D of slip. The live cohorts are the columns
+    ``lo:hi`` of preallocated buffers (oldest first): a new cohort is written at ``hi``, a
+    forgotten one advances ``lo``, and the buffers are compacted only when full."""
 
     def __init__(self, p: Renewal, v_start: float) -> None:
         self.p = p
         self.coefficients, self.lengths = (np.array(v) for v in zip(*p.populations, strict=True))
         span = HISTORY * self.lengths.max()
         width = COHORT * p.d0
-        self.x = np.arange(-span, 0.0, width)
-        self.w = np.full(self.x.size, width)
+        x = np.arange(-span, 0.0, width)
+        self.columns = np.empty((5, 2 * x.size + 16))  # rows x, w, c, e, g
+        self.survivors = np.empty((self.lengths.size, self.columns.shape[1]))
+        self.lo, self.hi = 0, x.size
         rate = p.clock_rate(v_start)
-        self.c = self.x / v_start * rate
-        self.e = self.c + width / v_start * rate
-        self.g = np.full(self.x.size, p.d0 / v_start)
+        self.x[:] = x
+        self.w[:] = width
+        self.c[:] = x / v_start * rate
+        self.e[:] = self.c + width / v_start * rate
+        self.g[:] = p.d0 / v_start
         self.reference = 0.0
-        self.factors = self._factors(slice(None))
+        self.factors[:] = self._factors(slice(None))
+
+    def _row(self, k: int) -> np.ndarray:
+        return self.columns[k, self.lo : self.hi]
+
+    x = property(lambda self: self._row(0))
+    w = property(lambda self: self._row(1))
+    c = property(lambda self: self._row(2))
+    e = property(lambda self: self._row(3))
+    g = property(lambda self: self._row(4))
+    factors = property(lambda self: self.survivors[:, self.lo : self.hi])
 
     def _factors(self, cohorts: slice) -> np.ndarray:
         """(populations, cohorts): e^{-(reference - end) / D_p} (1 - e^{-w / D_p}), the
@@ -128,7 +144,7 @@ class _Cohorts:
         """sum_p b_p S_p: mean log area of each population at slip x and clock value."""
         if x - self.reference > self.lengths.min():
             self.reference = x
-            self.factors = self._factors(slice(None))
+            self.factors[:] = self._factors(slice(None))
         shift = self.coefficients * np.exp(-(x - self.reference) / self.lengths)
         survivors = shift @ self.factors
         return _state(clock, self.c, self.e, self.g, self.p.tau_m, self.p.slip_like, survivors)
@@ -143,18 +159,20 @@ class _Cohorts:
             self.e[-1] = clock
             self.factors[:, -1:] = self._factors(slice(-1, None))
             return
-        self.x = np.append(self.x, x_old)
-        self.w = np.append(self.w, x_new - x_old)
-        self.c = np.append(self.c, begun)
-        self.e = np.append(self.e, clock)
-        self.g = np.append(self.g, self.p.d0 / v)
-        self.factors = np.hstack([self.factors, self._factors(slice(-1, None))])
+        if self.hi == self.columns.shape[1]:  # full: move the live cohorts to the front
+            live = self.hi - self.lo
+            self.columns[:, :live] = self.columns[:, self.lo : self.hi]
+            self.survivors[:, :live] = self.survivors[:, self.lo : self.hi]
+            self.lo, self.hi = 0, live
+            if 2 * live > self.columns.shape[1]:
+                self.columns = np.hstack([self.columns, np.empty_like(self.columns)])
+                self.survivors = np.hstack([self.survivors, np.empty_like(self.survivors)])
+        self.columns[:, self.hi] = x_old, x_new - x_old, begun, clock, self.p.d0 / v
+        self.hi += 1
+        self.factors[:, -1:] = self._factors(slice(-1, None))
         alive = x_new - self.x < HISTORY * self.lengths.max()
-        if not alive[0]:
-            self.x, self.w, self.c, self.e, self.g = (
-                a[alive] for a in (self.x, self.w, self.c, self.e, self.g)
-            )
-            self.factors = self.factors[:, alive]
+        if not alive[0]:  # cohorts are oldest first: the forgotten ones are a prefix
+            self.lo += int(np.argmax(alive))
 
 
 def _implicit_log_velocity(a: float, gain: float, rest: float) -> float:
