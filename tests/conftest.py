@@ -1,11 +1,14 @@
-"""Shared scenario builders (reference joint of physics.md section 4)."""
+"""Shared scenario builders (reference joint of physics.md section 4), and a cache of
+diagnosis passes for the tests that diagnose one record several ways."""
 
 from __future__ import annotations
 
 import copy
+import hashlib
 from typing import Any
 
 import pytest
+import xarray as xr
 
 from nanoblock.params import Scenario, from_mapping
 
@@ -55,3 +58,38 @@ def scenario(**changes: dict[str, Any]) -> Scenario:
 def make_scenario():
     """Factory fixture for :func:`scenario`."""
     return scenario
+
+
+_PASSES: dict[tuple, Any] = {}
+"""Closure passes of the diagnoses this process has run under ``cached_passes``."""
+
+
+def _digest(data: xr.Dataset) -> str:
+    """SHA-1 of a Dataset's attributes, variable names and values."""
+    digest = hashlib.sha1(repr(sorted(data.attrs.items())).encode())
+    for name in sorted(data.variables):
+        values = data[name].values
+        digest.update(str(name).encode())
+        digest.update(values.tobytes() if values.dtype.kind in "biuf" else repr(values).encode())
+    return digest.hexdigest()
+
+
+@pytest.fixture
+def cached_passes(monkeypatch) -> None:
+    """Diagnoses in the test reuse the closure passes (fits, scores, ranking: everything
+    before the simulation check) that this process computed for the same record, closure
+    and catalogue, as deep copies (a diagnosis sets the cause a pass accepts), so tests
+    that diagnose one record with and without the check, or in one and both closures,
+    fit it once. Tests sharing a record share an ``xdist_group``. Not for tests of the
+    passes' own paths (workers, progress)."""
+    from nanoblock.diagnosis import core
+
+    real = core._closure_pass
+
+    def cached(measurement, testable, closure, runner):
+        key = (_digest(measurement.data), closure, tuple(sorted(testable)))
+        if key not in _PASSES:
+            _PASSES[key] = real(measurement, testable, closure, runner)
+        return copy.deepcopy(_PASSES[key])
+
+    monkeypatch.setattr(core, "_closure_pass", cached)

@@ -3,7 +3,6 @@ the command line, and hidden effects found in data made by other code paths."""
 
 from __future__ import annotations
 
-import copy
 import functools
 import inspect
 import json
@@ -244,36 +243,21 @@ def test_the_cli_and_the_api_default_to_the_same_closure() -> None:
 
 
 @pytest.fixture(scope="module")
-def cohort_passes() -> dict:
-    """The cohort generator's effect-free record (matrix case #0) and the closure passes
-    of its diagnosis, fitted once (``cached_passes``) for the tests that compare them."""
+def cohort_record() -> xr.Dataset:
+    """The cohort generator's effect-free record (matrix case #0)."""
     data, _ = MAKERS["time_series"]("none", Case("time_series", "none", 0).rng())
-    return {"data": data, "passes": {}}
+    return data
 
 
-@pytest.fixture
-def cached_passes(monkeypatch, cohort_passes) -> xr.Dataset:
-    """``cohort_passes``' record, its diagnosis's closure passes computed on first use and
-    then served as deep copies (a diagnosis sets the cause a pass accepts)."""
-    real, cache = core._closure_pass, cohort_passes["passes"]
-
-    def cached(measurement, testable, closure, runner):
-        if closure not in cache:
-            cache[closure] = real(measurement, testable, closure, runner)
-        return copy.deepcopy(cache[closure])
-
-    monkeypatch.setattr(core, "_closure_pass", cached)
-    return cohort_passes["data"]
-
-
-@pytest.mark.xdist_group("cohort_passes")
-def test_best_closure_compares_final_models_not_bases(cached_passes) -> None:
+@pytest.mark.xdist_group("cohort_record")
+@pytest.mark.usefixtures("cached_passes")
+def test_best_closure_compares_final_models_not_bases(cohort_record) -> None:
     """``closure="best"`` runs a full pass in each closure and keeps the verdict whose
     final model has the lower information criterion. On the cohort generator's effect-free
     record (matrix case #0) the aging pass accepts ``state_velocity_cutoff`` (its misfit of
     the generator's own relaxation) and the renewal pass ends with its base, whose IC is
     lower (measured: -1682 against -1516), so the verdict is ``none``."""
-    result = diagnose(cached_passes, closure="best")
+    result = diagnose(cohort_record, closure="best")
     passes = result.closures
     assert passes["aging"]["final"] == "state_velocity_cutoff"
     assert passes["renewal"]["final"] == "base"
@@ -281,9 +265,10 @@ def test_best_closure_compares_final_models_not_bases(cached_passes) -> None:
     assert result.cause == "none" and result.base.fit.law == "renewal"
 
 
-@pytest.mark.xdist_group("cohort_passes")
+@pytest.mark.xdist_group("cohort_record")
+@pytest.mark.usefixtures("cached_passes")
 def test_best_closure_compares_the_finals_the_simulation_check_left(
-    monkeypatch, cached_passes
+    monkeypatch, cohort_record
 ) -> None:
     """With the simulation check, each pass checks its own supported causes before the
     passes are compared (the verdict once compared unchecked finals and, when the winner's
@@ -300,7 +285,7 @@ def test_best_closure_compares_the_finals_the_simulation_check_left(
         return {"status": "refused", "extension": extension, "summary": "scripted"}
 
     monkeypatch.setattr(core, "simulation_check", refuse)
-    result = diagnose(cached_passes, closure="best", simulate=True)
+    result = diagnose(cohort_record, closure="best", simulate=True)
     passes = result.closures
     assert asked[0] == ("aging", "state_velocity_cutoff")
     assert passes["aging"]["final"] == "base"

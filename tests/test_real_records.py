@@ -334,6 +334,8 @@ LAB_FILES = {
 
 @pytest.mark.slow
 @needs_lab
+@pytest.mark.xdist_group("lab_records")
+@pytest.mark.usefixtures("cached_passes")
 def test_laboratory_records_get_catalogue_causes_with_plausible_parameters() -> None:
     """At least 5 of the 6 records (the issue's acceptance) get a catalogue cause with the
     simulation check on, p4309's sawtooth is called unstable_sliding, and every accepted
@@ -367,6 +369,8 @@ def test_laboratory_records_get_catalogue_causes_with_plausible_parameters() -> 
 
 @pytest.mark.slow
 @needs_lab
+@pytest.mark.xdist_group("lab_records")
+@pytest.mark.usefixtures("cached_passes")
 def test_best_closure_names_the_cause_the_renewal_base_alone_hides() -> None:
     """75 MPa 2.3 -> 23 um/s: the renewal base fits better than the aging base (rms
     3.43e-4 against 3.75e-4), so ``auto`` continues in the renewal closure, where no
@@ -434,6 +438,8 @@ xfails: a fix makes them fail until the entry goes)."""
 
 @pytest.mark.slow
 @needs_lab
+@pytest.mark.xdist_group("lab_records")
+@pytest.mark.usefixtures("cached_passes")
 @pytest.mark.parametrize(
     ("name", "closure"),
     [
