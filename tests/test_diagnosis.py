@@ -215,14 +215,16 @@ def test_effect_free_and_effect_time_series(effect: str) -> None:
     assert diagnose(time_series_case(effect, rng, NOISE["time_series"])).cause == effect
 
 
-def test_auto_closure_takes_the_generators_own_population_average() -> None:
+@pytest.mark.xdist_group("cohort_record")
+@pytest.mark.usefixtures("cached_passes")
+def test_auto_closure_takes_the_generators_own_population_average(cohort_record) -> None:
     """``closure="auto"`` picks the renewal base for the independent cohort generator's
     effect-free record (matrix case #0, AR(1) noise phi 0.69) and the aging base for the
     aging-law generator's; on the cohort record the renewal closure finds nothing to
     explain (``none``), while the aging closure's misfit of the generator's own relaxation
     is taken for a cause (the aging closure's matrix: 8 of 8 effect-free records called
     ``state_velocity_cutoff``)."""
-    cohorts, _ = MAKERS["time_series"]("none", Case("time_series", "none", 0).rng())
+    cohorts = cohort_record
     aging_law = time_series_case("none", np.random.default_rng(8), NOISE["time_series"])
     assert closed_base(Measurement(resample_by_travel(cohorts)))[0] == "renewal"
     assert closed_base(Measurement(resample_by_travel(aging_law)))[0] == "aging"
