@@ -4,11 +4,10 @@ diagnosis passes for the tests that diagnose one record several ways."""
 from __future__ import annotations
 
 import copy
-import hashlib
 from typing import Any
 
 import pytest
-import xarray as xr
+from dask.base import tokenize
 
 from nanoblock.params import Scenario, from_mapping
 
@@ -64,16 +63,6 @@ _PASSES: dict[tuple, Any] = {}
 """Closure passes of the diagnoses this process has run under ``cached_passes``."""
 
 
-def _digest(data: xr.Dataset) -> str:
-    """SHA-1 of a Dataset's attributes, variable names and values."""
-    digest = hashlib.sha1(repr(sorted(data.attrs.items())).encode())
-    for name in sorted(data.variables):
-        values = data[name].values
-        digest.update(str(name).encode())
-        digest.update(values.tobytes() if values.dtype.kind in "biuf" else repr(values).encode())
-    return digest.hexdigest()
-
-
 @pytest.fixture
 def cached_passes(monkeypatch) -> None:
     """Diagnoses in the test reuse the closure passes (fits, scores, ranking: everything
@@ -87,7 +76,7 @@ def cached_passes(monkeypatch) -> None:
     real = core._closure_pass
 
     def cached(measurement, testable, closure, runner):
-        key = (_digest(measurement.data), closure, tuple(sorted(testable)))
+        key = (tokenize(measurement.data), closure, tuple(sorted(testable)))
         if key not in _PASSES:
             _PASSES[key] = real(measurement, testable, closure, runner)
         return copy.deepcopy(_PASSES[key])
