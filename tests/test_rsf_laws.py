@@ -233,13 +233,17 @@ def test_a_step_located_a_few_ulp_before_a_sample_starts_at_the_sample(ulps: int
 
 
 RENEWAL_LAWS = ("renewal", "renewal_cutoff", "renewal_saturation", "renewal2")
+COMPILED_LAWS = ("aging", "slip", "cutoff", "aging2", "slip2", *RENEWAL_LAWS)
+"""Laws whose quasi-static spring-slider is compiled (:mod:`nanoblock.kernels.log_laws`,
+:mod:`nanoblock.kernels.renewal`)."""
 
 
-@pytest.mark.parametrize("name", RENEWAL_LAWS)
-def test_renewal_jacobian_is_the_derivative_of_its_right_hand_side(name: str) -> None:
-    """The analytic Jacobian LSODA is given equals central differences of the vectorised
+@pytest.mark.parametrize("name", COMPILED_LAWS)
+def test_compiled_jacobian_is_the_derivative_of_its_right_hand_side(name: str) -> None:
+    """The analytic Jacobian LSODA is given equals central differences of the compiled
     right-hand side (relative 1e-6 of its largest entry), and that right-hand side equals
-    the generic scalar one built from ``state_rate`` and ``gradient``."""
+    the generic scalar one built from ``state_rate`` and ``gradient`` (to rounding: the
+    same operations in the same order)."""
     from nanoblock.rsf.slider import _quasi_static_rhs
 
     lw = law(name)

@@ -26,6 +26,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nanoblock.kernels.log_laws import AGING, SLIP, log_slider_jacobian, log_slider_rate
+
 FloatArray = NDArray[np.float64]
 QuasiStatic = tuple[
     Callable[[float, FloatArray, float], FloatArray],
@@ -205,12 +207,43 @@ class _LogVelocityLaw(Law):
         return (np.log(p[3] / np.asarray(v, dtype=float)),)
 
 
+def _log_system(
+    p: Sequence[float],
+    stiffness: float,
+    evolution: int,
+    v_theta: float = 0.0,
+    second: tuple[float, float] | None = None,
+) -> QuasiStatic:
+    """The compiled (rhs, Jacobian) of :mod:`nanoblock.kernels.log_laws` for a law with
+    parameters ``p`` = (mu0, a, b, dc, ..., v0), the evolution law of its state variables
+    (``AGING`` or ``SLIP``), the cutoff velocity and the optional second (b2, Dc2)."""
+    b2, dc2 = second or (0.0, 1.0)
+    constants = np.array([p[1], p[2], p[3], p[-1], stiffness, v_theta, b2, dc2, evolution])
+    size = 4 if second else 3
+    rate, matrix = np.empty(size), np.empty((size, size))  # odeint copies each result
+
+    def rhs(t: float, y: FloatArray, drive: float) -> FloatArray:
+        if not log_slider_rate(y, drive, constants, rate):
+            raise OverflowError(f"slip velocity v0 exp(w) at w = {y[0]!r} is not finite")
+        return rate
+
+    def jacobian(t: float, y: FloatArray, drive: float) -> FloatArray:
+        if not log_slider_jacobian(y, drive, constants, matrix):
+            raise OverflowError(f"slip velocity v0 exp(w) at w = {y[0]!r} is not finite")
+        return matrix
+
+    return rhs, jacobian
+
+
 @dataclass(frozen=True)
 class AgingLaw(_LogVelocityLaw):
     """Dieterich aging law: theta' = 1 - v theta / Dc (001/Eq. 3, 000/Eq. 2)."""
 
     def state_rate(self, v, s, p):
         return (math.exp(-s[0]) - v / p[3],)
+
+    def quasi_static_system(self, p, stiffness):
+        return _log_system(p, stiffness, AGING)
 
 
 @dataclass(frozen=True)
@@ -221,6 +254,9 @@ class SlipLaw(_LogVelocityLaw):
         if v <= 0.0:  # v ln v -> 0: no evolution at rest (v underflows after long holds)
             return (0.0,)
         return (-(v / p[3]) * (math.log(v / p[3]) + s[0]),)
+
+    def quasi_static_system(self, p, stiffness):
+        return _log_system(p, stiffness, SLIP)
 
 
 @dataclass(frozen=True)
@@ -239,6 +275,9 @@ class CutoffLaw(_LogVelocityLaw):
     def steady_state(self, v, p):
         return (np.log(p[3] / (np.asarray(v, dtype=float) + p[4])),)
 
+    def quasi_static_system(self, p, stiffness):
+        return _log_system(p, stiffness, AGING, v_theta=p[4])
+
 
 @dataclass(frozen=True)
 class SaturationLaw(AgingLaw):
@@ -256,6 +295,9 @@ class SaturationLaw(AgingLaw):
     def gradient(self, w, s, p):
         theta = math.exp(s[0])
         return p[1], (p[2] * theta / (theta + p[4]),)
+
+    def quasi_static_system(self, p, stiffness):
+        return None  # the generic right-hand side: the state's weight depends on theta
 
 
 @dataclass(frozen=True)
@@ -311,6 +353,9 @@ class TwoStateAgingLaw(_LogVelocityLaw):
         v = np.asarray(v, dtype=float)
         return (np.log(p[3] / v), np.log(p[5] / v))
 
+    def quasi_static_system(self, p, stiffness):
+        return _log_system(p, stiffness, AGING, second=(p[4], p[5]))
+
 
 @dataclass(frozen=True)
 class TwoStateSlipLaw(TwoStateAgingLaw):
@@ -321,6 +366,9 @@ class TwoStateSlipLaw(TwoStateAgingLaw):
         if v <= 0.0:
             return (0.0, 0.0)
         return tuple(-(v / dc) * (math.log(v / dc) + si) for dc, si in ((p[3], s[0]), (p[5], s[1])))
+
+    def quasi_static_system(self, p, stiffness):
+        return _log_system(p, stiffness, SLIP, second=(p[4], p[5]))
 
 
 RENEWAL_STEP = 1.0
