@@ -56,6 +56,18 @@ def _split_edge(table: np.ndarray, offset: int, cells: int, omega_a: float, dura
 
 
 @kernel(inline=True)
+def split_edge(table: np.ndarray, omega_a: float, x_rate: float, duration: float) -> int:
+    """The cell edge below which a rising ramp of ``duration`` [s] thins and above which it
+    takes the exact ramp (:func:`_split_edge`); 0 for a ramp that does not rise. It depends
+    on the table and the step only, so a caller advancing many contacts of one strength
+    class over one step computes it once."""
+    if x_rate <= 0.0:
+        return 0
+    offset, cells, _ = rate_cells(table)
+    return _split_edge(table, offset, cells, omega_a, duration)
+
+
+@kernel(inline=True)
 def _land(x: float, eta: float, period: float) -> float:
     """Where a block depinned at stress ``x`` lands (see :func:`advance_free_blocks`)."""
     return x - np.copysign(period, x) if period > 0.0 else -eta * x
@@ -145,6 +157,7 @@ def advance_free_blocks(
     table: np.ndarray,
     stream: np.ndarray,
     period: float = 0.0,
+    edge: int = -1,
 ) -> int:
     """Advance independent blocks (k2 = 0, reduced stress x = y) over one slider segment.
 
@@ -167,11 +180,13 @@ def advance_free_blocks(
     thinning and the exact ramp. A ramp that fires no candidate costs a subtraction instead
     of two cumulative hazards: most blocks, when a finite spring cuts the slider's path into
     short steps. A rising ramp too steep for one bound thins its part below a cell edge
-    (``_SPLIT_CANDIDATES``) and starts its exact part there, from the tabulated R.
+    (``_SPLIT_CANDIDATES``) and starts its exact part there, from the tabulated R;
+    ``edge``: that cell edge as :func:`split_edge` gives it (-1: computed here).
     """
     events = 0
     offset, cells, lowest = rate_cells(table)
-    edge = _split_edge(table, offset, cells, omega_a, duration) if x_rate > 0.0 else 0
+    if edge < 0:
+        edge = split_edge(table, omega_a, x_rate, duration)
     edge_x = edge / cells if edge > 0 else -1.0
     edge_bound = omega_a * table[offset + edge - 1] if edge > 0 else 0.0
     for i in range(y.shape[0]):  # i = blocks of one contact

@@ -20,7 +20,7 @@ import numpy as np
 from numba import prange
 
 from nanoblock.kernels._jit import kernel
-from nanoblock.kernels.blocks import advance_free_blocks
+from nanoblock.kernels.blocks import advance_free_blocks, split_edge
 from nanoblock.kernels.chain import advance_chain
 from nanoblock.kernels.rng import standard_exponential
 
@@ -59,14 +59,17 @@ def renew_contact(y_row, h_row, stream, memory: float) -> float:
 
 
 @kernel(nrt=False)
-def _advance_blocks(y_row, h_row, jump, x_rate, duration, params, table, stream, coupled) -> int:
+def _advance_blocks(
+    y_row, h_row, jump, x_rate, duration, params, table, stream, coupled, edge
+) -> int:
     # ``coupled is None`` is pruned at compile time: the chain kernel is then not compiled
     if coupled is not None and params.kappa != 0.0 and y_row.shape[0] > 1:
         return advance_chain(y_row, h_row, jump, x_rate, duration, params, table, stream)
     eta = params.eta_free if params.slip_chain == 1 else 0.0
     return advance_free_blocks(
-        y_row, h_row, jump, x_rate, duration, eta, params.omega_a, table, stream, params.hop_period
-    )
+        y_row, h_row, jump, x_rate, duration, eta, params.omega_a, table, stream,
+        params.hop_period, edge,
+    )  # fmt: skip
 
 
 @kernel
@@ -94,13 +97,16 @@ def advance_contact(
     strength,
     tables,
     coupled,
+    edges,
 ) -> None:
     """Advance contact c: slider jump ``jump`` [m], then ``duration`` [s] at ``velocity``.
 
     The contact dies when its slip since birth reaches its lifetime, at the exact instant
     on the slider path, and the fresh contact takes the rest of the segment. ``coupled``:
     None when every contact's blocks are independent (k2 = 0 or one block per contact),
-    True to run coupled chains through :func:`~.chain.advance_chain`.
+    True to run coupled chains through :func:`~.chain.advance_chain`. ``edges[k]``: the
+    split edge of strength class k over the whole ``duration``
+    (:func:`~.blocks.split_edge`); a part of it after a renewal computes its own.
     """
     k = c % strength.shape[0]
     rho = strength[k, 1]
@@ -118,9 +124,11 @@ def advance_contact(
             until_death = np.inf
         dies = until_death <= remaining
         span = until_death if dies else remaining
+        edge = edges[k] if span == duration else -1
         events[c] += _advance_blocks(
-            y[c], h[c], pending / rho, velocity / rho, span, params, table, streams[c], coupled
-        )
+            y[c], h[c], pending / rho, velocity / rho, span, params, table, streams[c], coupled,
+            edge,
+        )  # fmt: skip
         slip[c] += pending + velocity * span
         age[c] += clock * span
         remaining -= span
@@ -157,6 +165,10 @@ def advance_contacts(
     ``param_array`` is the one-element PARAMS array (records cannot enter a parallel loop
     by value); ``strength`` and ``tables`` hold each strength class's (sigma_a, rho~_max)
     and hazard table; ``coupled`` as in :func:`advance_contact`."""
+    omega_a = param_array[0].omega_a
+    edges = np.empty(strength.shape[0], dtype=np.int64)
+    for k in range(strength.shape[0]):  # per class, not per contact: 10 % of a 1-block step
+        edges[k] = split_edge(tables[k], omega_a, velocity / strength[k, 1], duration)
     for c in prange(y.shape[0]):
         params = param_array[0]
         advance_contact(
@@ -175,6 +187,7 @@ def advance_contacts(
             strength,
             tables,
             coupled,
+            edges,
         )
         area = contact_area(age[c], params)
         sigma_a, rho_max = strength[c % strength.shape[0]]
