@@ -233,7 +233,7 @@ def test_a_step_located_a_few_ulp_before_a_sample_starts_at_the_sample(ulps: int
 
 
 RENEWAL_LAWS = ("renewal", "renewal_cutoff", "renewal_saturation", "renewal2")
-COMPILED_LAWS = ("aging", "slip", "cutoff", "aging2", "slip2", *RENEWAL_LAWS)
+COMPILED_LAWS = ("aging", "slip", "cutoff", "saturation", "aging2", "slip2", *RENEWAL_LAWS)
 """Laws whose quasi-static spring-slider is compiled (:mod:`nanoblock.kernels.log_laws`,
 :mod:`nanoblock.kernels.renewal`)."""
 

@@ -213,12 +213,14 @@ def _log_system(
     evolution: int,
     v_theta: float = 0.0,
     second: tuple[float, float] | None = None,
+    tau_m: float = 0.0,
 ) -> QuasiStatic:
     """The compiled (rhs, Jacobian) of :mod:`nanoblock.kernels.log_laws` for a law with
     parameters ``p`` = (mu0, a, b, dc, ..., v0), the evolution law of its state variables
-    (``AGING`` or ``SLIP``), the cutoff velocity and the optional second (b2, Dc2)."""
+    (``AGING`` or ``SLIP``), the cutoff velocity, the optional second (b2, Dc2) and the
+    creep onset time of the saturation law."""
     b2, dc2 = second or (0.0, 1.0)
-    constants = np.array([p[1], p[2], p[3], p[-1], stiffness, v_theta, b2, dc2, evolution])
+    constants = np.array([p[1], p[2], p[3], p[-1], stiffness, v_theta, b2, dc2, evolution, tau_m])
     size = 4 if second else 3
     rate, matrix = np.empty(size), np.empty((size, size))  # odeint copies each result
 
@@ -297,7 +299,7 @@ class SaturationLaw(AgingLaw):
         return p[1], (p[2] * theta / (theta + p[4]),)
 
     def quasi_static_system(self, p, stiffness):
-        return None  # the generic right-hand side: the state's weight depends on theta
+        return _log_system(p, stiffness, AGING, tau_m=p[4])
 
 
 @dataclass(frozen=True)
