@@ -26,12 +26,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nanoblock.kernels.log_laws import AGING, SLIP, log_slider_jacobian, log_slider_rate
+from nanoblock.kernels.log_laws import AGING, SLIP, log_slider_rate
 
 FloatArray = NDArray[np.float64]
 QuasiStatic = tuple[
     Callable[[float, FloatArray, float], FloatArray],
-    Callable[[float, FloatArray, float], FloatArray],
+    Callable[[float, FloatArray, float], FloatArray] | None,
 ]
 
 __all__ = ["LAWS", "Law", "Parameter", "law"]
@@ -131,11 +131,11 @@ class Law:
         raise NotImplementedError
 
     def quasi_static_system(self, p: Sequence[float], stiffness: float) -> QuasiStatic | None:
-        """(rhs, Jacobian) of the quasi-static spring-slider in y = (w, s, slip), with
-        ``odeint``'s signature f(t, y, V_L): for laws whose many state coordinates make
-        the generic scalar right-hand side slow; None (the default) uses the generic one.
-        Each function may return its own buffer, overwritten by its next call (``odeint``
-        copies every result)."""
+        """(rhs, Jacobian or None) of the quasi-static spring-slider in y = (w, s, slip),
+        with ``odeint``'s signature f(t, y, V_L), compiled where the generic scalar
+        right-hand side would cost most of a fit's time; None (the default) uses the
+        generic one. Each function may return its own buffer, overwritten by its next call
+        (``odeint`` copies every result)."""
         return None
 
     # --- vectorised ----------------------------------------------------------------
@@ -215,26 +215,20 @@ def _log_system(
     second: tuple[float, float] | None = None,
     tau_m: float = 0.0,
 ) -> QuasiStatic:
-    """The compiled (rhs, Jacobian) of :mod:`nanoblock.kernels.log_laws` for a law with
-    parameters ``p`` = (mu0, a, b, dc, ..., v0), the evolution law of its state variables
-    (``AGING`` or ``SLIP``), the cutoff velocity, the optional second (b2, Dc2) and the
-    creep onset time of the saturation law."""
+    """The compiled right-hand side of :mod:`nanoblock.kernels.log_laws` (no Jacobian: see
+    there) for a law with parameters ``p`` = (mu0, a, b, dc, ..., v0), the evolution law of
+    its state variables (``AGING`` or ``SLIP``), the cutoff velocity, the optional second
+    (b2, Dc2) and the creep onset time of the saturation law."""
     b2, dc2 = second or (0.0, 1.0)
     constants = np.array([p[1], p[2], p[3], p[-1], stiffness, v_theta, b2, dc2, evolution, tau_m])
-    size = 4 if second else 3
-    rate, matrix = np.empty(size), np.empty((size, size))  # odeint copies each result
+    rate = np.empty(4 if second else 3)  # odeint copies each result
 
     def rhs(t: float, y: FloatArray, drive: float) -> FloatArray:
         if not log_slider_rate(y, drive, constants, rate):
             raise OverflowError(f"slip velocity v0 exp(w) at w = {y[0]!r} is not finite")
         return rate
 
-    def jacobian(t: float, y: FloatArray, drive: float) -> FloatArray:
-        if not log_slider_jacobian(y, drive, constants, matrix):
-            raise OverflowError(f"slip velocity v0 exp(w) at w = {y[0]!r} is not finite")
-        return matrix
-
-    return rhs, jacobian
+    return rhs, None
 
 
 @dataclass(frozen=True)
