@@ -33,7 +33,7 @@ def log_one_plus(z: float) -> float:
     return np.log(u) * (z / (u - 1.0)) if u != 1.0 else z
 
 
-@kernel
+@kernel(inline=True)
 def contact_area(age: float, params: np.ndarray) -> float:
     """Load-bearing area of a contact of ``age`` [s]: 001/Eq. 5 [m^2] (its logarithm by
     :func:`log_one_plus`: it runs per contact and internal step, a tenth of a one-block
@@ -72,7 +72,7 @@ def _advance_blocks(
     )  # fmt: skip
 
 
-@kernel
+@kernel(inline=True)
 def ageing_rate(velocity: float, params) -> float:
     """Rate of the ageing clock at slider velocity V [m/s]: 1, or V / (V + v_theta)."""
     if params.state_cutoff == 0.0:
@@ -80,7 +80,10 @@ def ageing_rate(velocity: float, params) -> float:
     return abs(velocity) / (abs(velocity) + params.state_cutoff)
 
 
-@kernel(nrt=False)
+# inlined in the contact loop with contact_area and ageing_rate: a step of 500 one-block
+# contacts 93 -> 73 us, compile time unchanged (advance_free_blocks inlined too: 63 us, but
+# the quick start's cold run 58 -> 112 s; measured 2026-11-27)
+@kernel(inline=True, nrt=False)
 def advance_contact(
     c,
     y,
