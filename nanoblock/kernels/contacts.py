@@ -170,7 +170,8 @@ def advance_contacts(
     and hazard table; ``coupled`` as in :func:`advance_contact`."""
     omega_a = param_array[0].omega_a
     edges = np.empty(strength.shape[0], dtype=np.int64)
-    for k in range(strength.shape[0]):  # per class, not per contact: 10 % of a 1-block step
+    # per class, not per contact: a step of 500 one-block contacts 99 -> 93 us
+    for k in range(strength.shape[0]):
         edges[k] = split_edge(tables[k], omega_a, velocity / strength[k, 1], duration)
     for c in prange(y.shape[0]):
         params = param_array[0]

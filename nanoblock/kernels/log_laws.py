@@ -12,7 +12,7 @@ creep onset time tau_m (the saturation law, 001/Eq. 5), else g = 1.
 
 It does the operations of the laws' generic right-hand side (``state_rate`` and
 ``gradient`` in :func:`nanoblock.rsf.slider._quasi_static_rhs`) in the same order, so LSODA
-takes the same steps and every fit is the same to the last bit, 1.2-2x sooner (LSODA
+takes the same steps and every fit is the same to the last bit, 1.15-1.6x sooner (LSODA
 calls it thousands of times per fit; it writes into the caller's buffer and allocates
 nothing). LSODA gets no Jacobian: with the exact one it took other steps, and a fit's
 finite differences over them led some fits to other optima (a combined two-load
