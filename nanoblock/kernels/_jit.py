@@ -20,6 +20,12 @@ def kernel(
     reductions and transcendental functions are identical on every run and thread count.
     ``inline=True`` inlines the function into its Numba callers (for the small per-event
     helpers: a call that passes arrays costs reference counting, ~10 ns, more than they do).
+    Numba types an inlined function anew at each call site, so a large helper, or one with
+    several call sites, is compiled once as its own ``nrt=False`` function instead: a call
+    from one ``nrt=False`` function to another counts no references (the quickstart's
+    kernels compiled in 19 s instead of 29 s when the exact ramp, the thinning step, the
+    cumulative hazard and its inverse stopped being inlined; run time unchanged, measured
+    2026-11-28).
     ``nrt=False`` compiles without Numba's reference counting, for functions that allocate
     nothing and return no array: each array argument and view otherwise costs two atomic
     updates per call, a fifth of the chain kernel's run time before the event loop, the

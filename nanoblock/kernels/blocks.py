@@ -73,7 +73,7 @@ def _land(x: float, eta: float, period: float) -> float:
     return x - np.copysign(period, x) if period > 0.0 else -eta * x
 
 
-@kernel(inline=True)
+@kernel(nrt=False)
 def _thin(x, h, x_rate, remaining, bound, omega_a, table, stream, eta, period):
     """A candidate of the thinning process of rate ``bound`` falls within ``remaining``
     (hazard ``h`` <= bound remaining): move there and accept it with probability
@@ -99,7 +99,7 @@ def next_depinning(
     return _next_depinning(x0, np.nan, h, x_rate, horizon, omega_a, table)
 
 
-@kernel(inline=True)
+@kernel(nrt=False)
 def _next_depinning(
     x0: float,
     known: float,

@@ -213,7 +213,7 @@ def _collect_runs(moving, n_moving, run_start, run_length, run_first, run_size) 
     return n_runs
 
 
-@kernel(inline=True)
+@kernel(nrt=False)
 def _build_modes(z, offset, kappa, omega1_sq, gamma, run_start, run_length, n_runs, vectors, modal):
     """Spectrum, equilibrium z*, deviation z - z* and modal state (q, p) of every run from
     the blocks' z and velocities (:mod:`nanoblock.kernels.modes`); mode k of the run that
@@ -251,7 +251,7 @@ def _build_modes(z, offset, kappa, omega1_sq, gamma, run_start, run_length, n_ru
     return np.sqrt(w_max_sq)
 
 
-@kernel(inline=True)
+@kernel(nrt=False)
 def _watch_list(z, offset, kappa, in_motion, run_start, run_length, n_runs, modal, watch) -> int:
     """List the pinned neighbours of moving blocks with their present stress x_j and x_j*,
     their stress with the moving neighbours at equilibrium; returns their number."""
@@ -284,7 +284,7 @@ def _block_motion(run_start, run_length, n_runs, vectors, q, p, modal) -> None:
             modal[_VEL, i] = velocity
 
 
-@kernel(inline=True)
+@kernel(nrt=False)
 def _event_weights(j, kappa, in_motion, run_first, run_size, vectors, slots, modal) -> int:
     """Modal weights of block j's event function: its velocity along its heading if it
     moves, else minus kappa times its moving neighbours' deviations (its stress minus
@@ -304,7 +304,7 @@ def _event_weights(j, kappa, in_motion, run_first, run_size, vectors, slots, mod
     return n_terms
 
 
-@kernel(inline=True)
+@kernel(nrt=False)
 def _time_to_steady(run_start, run_length, n_runs, vectors, modal, gamma) -> float:
     """0 if no moving block will ever turn, else a guess of how long [s] this proof will
     keep failing (inf: a turn is certain, or nothing is known).
@@ -347,7 +347,7 @@ def _time_to_steady(run_start, run_length, n_runs, vectors, modal, gamma) -> flo
     return 0.0
 
 
-@kernel(inline=True)
+@kernel(nrt=False)
 def _first_join(
     watch, n_watch, in_motion, run_first, run_size, vectors, slots, modal, gamma, kappa, dt
 ) -> tuple[float, int]:

@@ -23,7 +23,9 @@ _EXACT_SEED = 8  # header slots 8, 9: the ln R levels between which the seed is 
 
 @kernel(inline=True)
 def _side(x: float, table: np.ndarray) -> int:
-    """Start of the table that serves reduced stress x (the second one for x < 0)."""
+    """Start of the table that serves reduced stress x, or a signed cumulative hazard x
+    (the second one for x < 0). Never the literal 0, so that every caller of a function
+    taking it shares one compiled specialization."""
     return int(table[_NEGATIVE]) if x < 0.0 else 0
 
 
@@ -53,7 +55,7 @@ def _hermite(x: float, table: np.ndarray, start: int) -> tuple[float, float]:
     return value, slope
 
 
-@kernel(inline=True)
+@kernel(nrt=False)
 def _cumulative(x: float, table: np.ndarray, start: int) -> float:
     if x <= 0.0:
         return 0.0
@@ -66,7 +68,7 @@ def _cumulative(x: float, table: np.ndarray, start: int) -> float:
 @kernel(inline=True)
 def cumulative(x: float, table: np.ndarray) -> float:
     """R(x) = int_0^x r(s) ds for x in [0, 1] (dimensionless)."""
-    return _cumulative(x, table, 0)
+    return _cumulative(x, table, _side(x, table))
 
 
 @kernel(inline=True)
@@ -74,7 +76,7 @@ def signed_cumulative(x: float, table: np.ndarray) -> float:
     """R(x) for x in [-1, 1] (odd in x in the base model: escape follows the stress)."""
     if x < 0.0:
         return -_cumulative(-x, table, _side(x, table))
-    return _cumulative(x, table, 0)
+    return _cumulative(x, table, _side(x, table))
 
 
 @kernel(inline=True)
@@ -105,15 +107,15 @@ def rate_cells(table: np.ndarray) -> tuple[int, int, float]:
 @kernel(inline=True)
 def inverse_cumulative(level: float, table: np.ndarray) -> float:
     """x in [0, 1] with R(x) = ``level`` (0 <= level <= R(1)), by seeded Newton on ln R."""
-    return _inverse(level, table, 0)
+    return _inverse(level, table, _side(level, table))
 
 
 @kernel(inline=True)
 def signed_inverse(level: float, table: np.ndarray) -> float:
     """x in [-1, 1] with signed R(x) = ``level``: the inverse of :func:`signed_cumulative`."""
     if level < 0.0:
-        return -_inverse(-level, table, int(table[_NEGATIVE]))
-    return _inverse(level, table, 0)
+        return -_inverse(-level, table, _side(level, table))
+    return _inverse(level, table, _side(level, table))
 
 
 _SEED_TOLERANCE = 1e-8
@@ -123,7 +125,7 @@ _MAX_NEWTON = 100
 """Enough for bisection to reach round-off where R is flat (a reverse rate that underflows)."""
 
 
-@kernel(inline=True)
+@kernel(nrt=False)
 def _inverse(level: float, table: np.ndarray, start: int) -> float:
     """Newton on ln x + g(x) = ln ``level``, seeded by the cubic Hermite inverse table
     (error ~1e-9 where R is smallest, so one step usually reaches round-off); between the

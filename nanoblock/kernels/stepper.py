@@ -89,8 +89,13 @@ block fires at about twice the mean stress)."""
 def load_point(t: float, protocol: np.ndarray) -> tuple[float, float, float]:
     """Load-point position X_L(t) [m], velocity [m/s] and the end of the current segment [s]."""
     starts = protocol[0]
-    k = max(np.searchsorted(starts, t, side="right") - 1, 0)
-    k = min(k, starts.shape[0] - 2)
+    k, last = 0, starts.shape[0] - 2  # bisection for the last segment starting at or before t
+    while k < last:  # (np.searchsorted compiles for a second longer)
+        middle = (k + last + 1) // 2
+        if starts[middle] <= t:
+            k = middle
+        else:
+            last = middle - 1
     return protocol[2, k] + protocol[1, k] * (t - starts[k]), protocol[1, k], starts[k + 1]
 
 
@@ -181,7 +186,10 @@ def advance_to(
     spring = params.stiffness
     blocks = state[0].size
     window = max(1.0, blocks * _WINDOW)
-    athermal = _ATHERMAL * params.omega_a * np.max(strength[:, 1])
+    strongest = 0.0  # the largest rho~_max of the strength classes (a loop compiles sooner)
+    for k in range(strength.shape[0]):
+        strongest = max(strongest, strength[k, 1])
+    athermal = _ATHERMAL * params.omega_a * strongest
     while s.time < t_stop:
         _, load_velocity, segment_end = load_point(s.time, protocol)
         following = following_velocity(load_velocity, s.stiffness, spring)
@@ -200,7 +208,8 @@ def advance_to(
         if s.last_dt > 0.0:
             dt = min(dt, 2.0 * s.last_dt)
         velocity = following + s.drift
-        scratch[2, :] = events
+        for c in range(events.shape[0]):  # a loop: a slice assignment compiles its shape check
+            scratch[2, c] = events[c]
         _advance_interface(
             slider, state, streams, events, scratch, param_array, strength, tables, coupled,
             velocity, dt,
