@@ -58,7 +58,7 @@ def renew_contact(y_row, h_row, stream, memory: float) -> float:
     return memory * standard_exponential(stream)
 
 
-@kernel(nrt=False)
+@kernel(inline=True, nrt=False)
 def _advance_blocks(
     y_row, h_row, jump, x_rate, duration, params, table, stream, coupled, edge
 ) -> int:
