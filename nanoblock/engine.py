@@ -47,11 +47,12 @@ COMPILING = (
 )
 """Shown on stderr, with a progress bar, when the kernels are not in Numba's cache."""
 
-COMPILE_SECONDS = {"independent blocks": 35.0, "chains": 85.0}
-"""Measured cold compile of the kernels a run needs, 2-core host of 2026-11-27, rounded
-up [s]: independent blocks (the quickstart, 31 s) and chains, which also compile the chain
-kernel (82 s) (``benchmarks/bench_quickstart.py``, ``compile`` and ``chain, compile``; the
-host of 2026-11-26 took 13 and 38 s)."""
+COMPILE_SECONDS = {"independent blocks": 20.0, "chains": 45.0}
+"""Measured cold compile of the kernels a run needs, 2-core host of 2026-11-28, rounded
+up [s]: independent blocks (the quickstart, 18 s) and chains, which also compile the chain
+kernel (41 s) (``benchmarks/bench_quickstart.py``, ``compile`` and ``chain, compile``; on
+2026-11-27 the same host took 31 and 82 s, before the helpers that were inlined at every
+call site compiled once on their own)."""
 
 TRANSIENT_FORCE_STEP = 0.005
 """epsilon: in transients one internal step changes the force by at most epsilon alpha F."""
