@@ -48,7 +48,7 @@ sqrt(rms^2 - noise_data^2 - noise_simulation^2), the data's noise estimated by
 :func:`~nanoblock.diagnosis.statistics.noise_level`.
 
 Cost. A run's time goes almost all (> 95 %) into the kernels' internal steps, one every
-rho~_max / 8 of slip at ~73 us for 500 contacts (measured 2026-11-27), so it grows with
+rho~_max / 8 of slip at ~62 us for 500 contacts (measured 2026-11-28), so it grows with
 the record's slip in memory lengths; only the friction is kept from each run
 (:func:`~nanoblock.engine.friction_at`), and the runs (interfaces x seeds) are independent
 and go at once on the idle cores (:func:`concurrent_runs`).

@@ -20,7 +20,7 @@ import numpy as np
 from numba import prange
 
 from nanoblock.kernels._jit import kernel
-from nanoblock.kernels.blocks import advance_free_blocks, split_edge
+from nanoblock.kernels.blocks import advance_free_blocks
 from nanoblock.kernels.chain import advance_chain
 from nanoblock.kernels.rng import standard_exponential
 
@@ -143,7 +143,7 @@ def advance_contact(
         age[c] = 0.0
 
 
-@kernel(parallel=True)
+@kernel(parallel=True, nrt=False)
 def advance_contacts(
     y,
     h,
@@ -161,18 +161,17 @@ def advance_contacts(
     strength,
     tables,
     coupled,
+    edges,
 ) -> None:
     """Advance every contact (in parallel; each has its own stream) and store its force
     ``force[c]`` [N] and elastic stiffness ``stiffness[c]`` = dF_c / dX [N/m].
 
     ``param_array`` is the one-element PARAMS array (records cannot enter a parallel loop
     by value); ``strength`` and ``tables`` hold each strength class's (sigma_a, rho~_max)
-    and hazard table; ``coupled`` as in :func:`advance_contact`."""
-    omega_a = param_array[0].omega_a
-    edges = np.empty(strength.shape[0], dtype=np.int64)
-    # per class, not per contact: a step of 500 one-block contacts 99 -> 93 us
-    for k in range(strength.shape[0]):
-        edges[k] = split_edge(tables[k], omega_a, velocity / strength[k, 1], duration)
+    and hazard table; ``coupled`` and ``edges`` as in :func:`advance_contact`. Compiled
+    without reference counting, like the contact step it inlines: the loop's views of each
+    contact's rows otherwise cost two atomic updates each (a step of 500 one-block
+    contacts 72 -> 62 us, measured 2026-11-28)."""
     for c in prange(y.shape[0]):
         params = param_array[0]
         advance_contact(

