@@ -271,6 +271,7 @@ class Run:
         self.times = sample_times(scenario) if times is None else np.asarray(times, dtype=float)
         self.state = initial_state(scenario, self.params, self.strength)
         self.scratch = np.zeros((3, scenario.interface.n_contacts))
+        self.edges = np.empty(self.strength.shape[0], dtype=np.int64)
         chains = scenario.interface.blocks_per_contact > 1 and self.params[0]["kappa"] != 0.0
         # the parallel contact loop runs nested in the stepper, where Numba does not launch
         # its thread pool: without this a first step outside simulate() segfaulted
@@ -294,6 +295,7 @@ class Run:
             s.streams,
             s.events,
             self.scratch,
+            self.edges,
             self.params,
             self.strength,
             self.tables,

@@ -113,9 +113,10 @@ def inverse_cumulative(level: float, table: np.ndarray) -> float:
 @kernel(inline=True)
 def signed_inverse(level: float, table: np.ndarray) -> float:
     """x in [-1, 1] with signed R(x) = ``level``: the inverse of :func:`signed_cumulative`."""
+    start = _side(level, table)
     if level < 0.0:
-        return -_inverse(-level, table, _side(level, table))
-    return _inverse(level, table, _side(level, table))
+        return -_inverse(-level, table, start)
+    return _inverse(level, table, start)
 
 
 _SEED_TOLERANCE = 1e-8

@@ -123,15 +123,14 @@ def _balance_jump(position: float, load: float, force: float, k_int: float, para
 
 @kernel(inline=True)
 def _advance_interface(
-    slider, state, streams, events, scratch, param_array, strength, tables, coupled, velocity,
-    duration,
+    slider, state, streams, events, scratch, edges, param_array, strength, tables, coupled,
+    velocity, duration,
 ) -> None:  # fmt: skip
     """Apply the pending jump, slide ``duration`` at ``velocity``, sum forces into the slider."""
     y, h, age, slip, lifetime = state
     force, stiffness = scratch[0], scratch[1]
     s = slider[0]
     omega_a = param_array[0].omega_a
-    edges = np.empty(strength.shape[0], dtype=np.int64)
     # per class, not per contact: a step of 500 one-block contacts 99 -> 93 us
     for k in range(strength.shape[0]):
         edges[k] = split_edge(tables[k], omega_a, velocity / strength[k, 1], duration)
@@ -182,15 +181,17 @@ def _event_spread(events: np.ndarray, before: np.ndarray) -> tuple[float, float]
 
 @kernel(inline=True)
 def advance_to(
-    t_stop, slider, state, streams, events, scratch, param_array, strength, tables, coupled,
-    protocol,
+    t_stop, slider, state, streams, events, scratch, edges, param_array, strength, tables,
+    coupled, protocol,
 ) -> None:  # fmt: skip
     """Advance the interface and the slider from ``slider.time`` to ``t_stop`` [s].
 
     ``state`` is ``(y, h, age, slip, lifetime)`` (see :mod:`.contacts`); ``scratch`` three
     float arrays of length n_contacts: the contacts' forces, stiffnesses and event counts
-    before the step; ``param_array`` the one-element PARAMS array; ``coupled`` None for
-    independent blocks (the chain kernel is then not compiled), True for chains.
+    before the step; ``edges`` an int64 array of length n_classes that takes each step's
+    split edges (:func:`~.blocks.split_edge`; both allocated by the driver);
+    ``param_array`` the one-element PARAMS array; ``coupled`` None for independent blocks
+    (the chain kernel is then not compiled), True for chains.
     """
     params = param_array[0]
     s = slider[0]
@@ -222,7 +223,7 @@ def advance_to(
         for c in range(events.shape[0]):  # a loop: a slice assignment compiles its shape check
             scratch[2, c] = events[c]
         _advance_interface(
-            slider, state, streams, events, scratch, param_array, strength, tables, coupled,
+            slider, state, streams, events, scratch, edges, param_array, strength, tables, coupled,
             velocity, dt,
         )  # fmt: skip
         moved = s.position + velocity * dt
@@ -247,7 +248,7 @@ def advance_to(
 
 @kernel(inline=True)
 def settle(
-    slider, state, streams, events, scratch, param_array, strength, tables, coupled,
+    slider, state, streams, events, scratch, edges, param_array, strength, tables, coupled,
     max_rounds: int,
 ) -> int:  # fmt: skip
     """Apply the pending elastic jump and iterate (depinnings it triggers) to balance.
@@ -259,7 +260,7 @@ def settle(
     s = slider[0]
     for rounds in range(1, max_rounds + 1):
         _advance_interface(
-            slider, state, streams, events, scratch, param_array, strength, tables, coupled,
+            slider, state, streams, events, scratch, edges, param_array, strength, tables, coupled,
             0.0, 0.0,
         )  # fmt: skip
         s.pending = _balance_jump(s.position, s.load_point, s.force, s.stiffness, params)
@@ -271,20 +272,20 @@ def settle(
 
 @kernel
 def advance_to_sample(
-    t_sample, slider, state, streams, events, scratch, param_array, strength, tables, coupled,
-    protocol,
+    t_sample, slider, state, streams, events, scratch, edges, param_array, strength, tables,
+    coupled, protocol,
 ) -> int:  # fmt: skip
     """:func:`advance_to` ``t_sample``, then :func:`settle`: a balanced stored sample.
 
-    The only stepper function compiled on its own: the others are inlined into it. Numba
-    links each compiled function's callees into it and optimizes the whole tree again, so
-    every wrapper level costs the first run a pass over the kernel (the quickstart's
-    compile 19 -> 16 s, measured 2026-11-28)."""
+    The stepper's one entry point besides :func:`following_velocity`: the other functions
+    are inlined into it. Numba links each compiled function's callees into it and
+    optimizes the whole tree again, so every wrapper level costs the first run a pass over
+    the kernel (the quickstart's compile 19 -> 16 s, measured 2026-11-28)."""
     advance_to(
-        t_sample, slider, state, streams, events, scratch, param_array, strength, tables, coupled,
-        protocol,
+        t_sample, slider, state, streams, events, scratch, edges, param_array, strength, tables,
+        coupled, protocol,
     )  # fmt: skip
     return settle(
-        slider, state, streams, events, scratch, param_array, strength, tables, coupled,
+        slider, state, streams, events, scratch, edges, param_array, strength, tables, coupled,
         _SETTLE_ROUNDS,
     )  # fmt: skip
