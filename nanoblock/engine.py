@@ -52,7 +52,8 @@ COMPILE_SECONDS = {"independent blocks": 20.0, "chains": 45.0}
 up [s]: independent blocks (the quickstart, 18 s) and chains, which also compile the chain
 kernel (41 s) (``benchmarks/bench_quickstart.py``, ``compile`` and ``chain, compile``; on
 2026-11-27 the same host took 31 and 82 s, before the helpers that were inlined at every
-call site compiled once on their own)."""
+call site compiled once on their own; at 04:14 on 2026-11-28, the host running twice as
+fast, 12 and 31 s: the estimate keeps the slower day's)."""
 
 TRANSIENT_FORCE_STEP = 0.005
 """epsilon: in transients one internal step changes the force by at most epsilon alpha F."""
