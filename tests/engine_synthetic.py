@@ -69,9 +69,12 @@ def _targets(effect: str, rng: np.random.Generator) -> tuple[dict, dict, float, 
     return base, {**base, **extra}, d0, stated
 
 
-def engine_time_series(effect: str, rng: np.random.Generator) -> tuple[xr.Dataset, None]:
-    """An engine-made record with ``effect`` (or ``none``): (data, None); there is no
-    noiseless twin (the engine's contact noise is part of the data)."""
+def clean_record(
+    effect: str, rng: np.random.Generator, n_contacts: int = N_CONTACTS
+) -> tuple[xr.Dataset, dict, float, float]:
+    """The engine's friction for ``effect`` (or ``none``) without measurement noise, the
+    base targets, and the sigma and lag-1 autocorrelation phi of the noise
+    :func:`engine_time_series` adds (drawn from ``rng`` in its order)."""
     base, extended, d0, stated = _targets(effect, rng)
     sigma = NOISE["time_series"] * rng.uniform(0.7, 1.4)
     phi = rng.uniform(0.5, 0.9) if rng.random() < COLOURED_SHARE else 0.0
@@ -94,10 +97,18 @@ def engine_time_series(effect: str, rng: np.random.Generator) -> tuple[xr.Datase
     for index, run in enumerate(prepare_runs(skeleton)):
         built = _interfaces(
             run, stated, ROOM_TEMPERATURE, base, None if effect == "none" else effect,
-            extended, reference, AGING_FAMILY, n_contacts=N_CONTACTS, seed=seed + index,
+            extended, reference, AGING_FAMILY, n_contacts=n_contacts, seed=seed + index,
         )  # fmt: skip
         times = record_times(run, built.scales[name], built.run_in[name])
         friction.append(friction_at(built.scenarios[name], times))
-    noise = np.concatenate([_noise(rng, time.size, sigma, phi) for _ in FORCES])
-    columns["mu"] = np.concatenate(friction) + noise
-    return _dataset(columns, "time_series", **attrs), None
+    columns["mu"] = np.concatenate(friction)
+    return _dataset(columns, "time_series", **attrs), base, sigma, phi
+
+
+def engine_time_series(effect: str, rng: np.random.Generator) -> tuple[xr.Dataset, None]:
+    """An engine-made record with ``effect`` (or ``none``): (data, None); there is no
+    noiseless twin (the engine's contact noise is part of the data)."""
+    clean, _, sigma, phi = clean_record(effect, rng)
+    size = clean.sizes["sample"] // len(FORCES)
+    clean["mu"].values += np.concatenate([_noise(rng, size, sigma, phi) for _ in FORCES])
+    return clean, None
