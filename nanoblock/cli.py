@@ -368,9 +368,10 @@ def sweep(
     total = len(report.manifest["tasks"])
     for entry in failed:
         typer.echo(f"failed: task {describe(entry)}: {entry['error']}", err=True)
+    before = [e for e in report.entries("done") if e["task"] not in report.ran]
     typer.echo(
         f"sweep {out}: {total} tasks, {len(report.ran)} run now, "
-        f"{total - len(report.ran)} finished before, {len(failed)} failed"
+        f"{len(before)} finished before, {len(failed)} failed"
     )
     if failed:
         typer.echo("run the same command again to retry the failed tasks", err=True)

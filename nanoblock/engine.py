@@ -11,7 +11,7 @@ import sys
 import time as wallclock
 from collections.abc import Callable
 from contextlib import nullcontext
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -36,7 +36,7 @@ from nanoblock.params import (
     requirements,
     resolve_seed,
 )
-from nanoblock.store import SAMPLES, SNAPSHOTS, RunStore, dataset
+from nanoblock.store import SAMPLES, SNAPSHOTS, RunStore, StoreError, dataset
 from nanoblock.tables import hazard_table, lattice_hazard_table
 from nanoblock.theory.meanfield import MeanFieldJoint, sample_q_stationary
 from nanoblock.threads import ThreadBudget
@@ -591,6 +591,12 @@ def _resume(run: Run, writer: RunStore) -> dict[str, Any] | None:
     if checkpoint is None:
         return None
     arrays, progress = checkpoint
+    missing = sorted({f.name for f in fields(InterfaceState)} - set(arrays))
+    if missing:  # a store written before checkpoint slots listed their arrays
+        raise StoreError(
+            f"{writer.path}: checkpoint damaged (arrays {', '.join(missing)} missing): "
+            "the run cannot be resumed on its own trajectory"
+        )
     writer.truncate(int(progress["samples"]), int(progress.get("snapshots", 0)))
     run.restore(arrays, progress)
     return dict(stored.get("progress", {}))

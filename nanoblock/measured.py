@@ -225,12 +225,30 @@ def _attrs(name: str) -> dict[str, str]:
 
 
 def _read_dataset(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object], int]:
-    if path.suffix == ".nc":
-        dataset = xr.open_dataset(path)
-    else:
-        dataset = xr.open_zarr(path, consolidated=False)
-        if "scenario" in dataset.attrs:
-            dataset = from_simulation(dataset)
+    """A netCDF file or zarr store's 1-D variables and attrs (a nanoblock run store as
+    :func:`from_simulation` converts it, refused when arrays or chunks are missing)."""
+    from nanoblock.store import RunStore
+
+    form = "netCDF" if path.suffix == ".nc" or path.is_file() else "zarr"
+    run = RunStore(path)
+    try:
+        if form == "zarr" and run.exists() and "scenario" in run.attrs:
+            damage = run.damage()
+            if damage:
+                raise DataError(f"{path}: damaged nanoblock run store: {'; '.join(damage)}")
+        if form == "netCDF":
+            dataset = xr.open_dataset(path)
+        else:
+            dataset = xr.open_zarr(path, consolidated=False)
+    except DataError:
+        raise
+    except Exception as error:  # any reader failure: the file is not what its name says
+        raise DataError(
+            f"{path}: not readable as {form} ({type(error).__name__}: {error}); give a CSV, "
+            "a netCDF file or a zarr store in the measured-data format"
+        ) from None
+    if "scenario" in dataset.attrs:
+        dataset = from_simulation(dataset)
     columns = {}
     for name in dataset.variables:
         values = dataset[name].values

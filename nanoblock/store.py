@@ -212,9 +212,9 @@ class RunStore:
         resume: Mapping[str, Any],
         progress: Mapping[str, Any],
     ) -> None:
-        """Store the full kernel state in the free slot (its resume data cleared first and
-        written last), then, in one metadata write, point the ``checkpoint`` attr at it
-        (with the ``resume`` data) and set ``progress``."""
+        """Store the full kernel state in the free slot (its resume data and the names of
+        its arrays cleared first and written last), then, in one metadata write, point the
+        ``checkpoint`` attr at it (with the ``resume`` data) and set ``progress``."""
         root = zarr.open_group(self.path, mode="a")
         current = root.attrs.get("checkpoint", {}).get("slot")
         slot = "b" if current == "a" else "a"
@@ -228,7 +228,7 @@ class RunStore:
                 config={"write_empty_chunks": True},
                 **CHECKED,
             )
-        group.attrs.put(dict(resume))
+        group.attrs.put({**resume, "arrays": sorted(arrays)})
         root.attrs.update({"checkpoint": {"slot": slot, **resume}, "progress": dict(progress)})
 
     def read_checkpoint(self) -> tuple[dict[str, np.ndarray], dict[str, Any]] | None:
@@ -273,26 +273,35 @@ class RunStore:
         """The resume data a checkpoint slot was completed with (None: never completed)."""
         group = self._slot(slot)
         attrs = dict(group.attrs) if group is not None else {}
+        attrs.pop("arrays", None)
         return attrs if "samples" in attrs else None
 
     def checkpoint_damage(self, slot: str) -> list[str]:
-        """Missing or unreadable chunks of a checkpoint slot."""
+        """Missing arrays (of those the slot's attrs list), missing or unreadable chunks
+        of a checkpoint slot."""
         group = self._slot(slot)
         if group is None:
             return [f"checkpoint/{slot}: missing"]
         checked = self.attrs.get("integrity") == INTEGRITY
-        problems = []
-        for name in group.array_keys():
+        present = set(group.array_keys())
+        listed = group.attrs.get("arrays", [])
+        problems = [
+            f"checkpoint/{slot}/{name}: array missing" for name in listed if name not in present
+        ]
+        for name in sorted(present):
             where = f"checkpoint/{slot}/{name}"
             problems += _chunk_damage(group[name], where, None, self.path, checked)
         if not problems and not list(group.array_keys()):
             problems.append(f"checkpoint/{slot}: holds no arrays")
         return problems
 
-    def damage(self, n_samples: int | None = None, n_snapshots: int | None = None) -> list[str]:
-        """Every missing or unreadable chunk of the stored samples and snapshots, named by
-        array and sample (or snapshot) range, up to ``n_samples`` and ``n_snapshots``
-        (default: what :meth:`open` shows)."""
+    def damage(
+        self, n_samples: int | None = None, n_snapshots: int | None = None, *, read: bool = True
+    ) -> list[str]:
+        """Every missing array, missing or unreadable chunk of the stored samples and
+        snapshots, named by array and sample (or snapshot) range, up to ``n_samples`` and
+        ``n_snapshots`` (default: what :meth:`open` shows). ``read=False`` looks for missing
+        arrays and chunk files only, without decoding the chunks (a stat per chunk)."""
         attrs = self.attrs
         pointer = attrs.get("checkpoint") or {}
         unfinished = not attrs.get("complete", True) and pointer
@@ -304,11 +313,12 @@ class RunStore:
         with warnings.catch_warnings():  # a folder without zarr.json: reported as missing
             warnings.simplefilter("ignore", UserWarning)
             present = set(group.array_keys())
-            problems = [
-                f"{name}: array missing" for name in [*SAMPLES, "time"] if name not in present
-            ]
+            expected = [*SAMPLES, "time"]
+            if present & {*SNAPSHOTS, "snapshot_time"}:  # snapshots are written all together
+                expected += [*SNAPSHOTS, "snapshot_time"]
+            problems = [f"{name}: array missing" for name in expected if name not in present]
             for array, keep in _appended(group, n_samples, n_snapshots):
-                problems += _chunk_damage(array, array.basename, keep, self.path, checked)
+                problems += _chunk_damage(array, array.basename, keep, self.path, checked, read)
         return problems
 
     def open(self) -> xr.Dataset:
@@ -364,16 +374,21 @@ def _appended(
 
 
 def _chunk_damage(
-    array: zarr.Array, name: str, keep: int | None, root: Path, all_written: bool = True
+    array: zarr.Array,
+    name: str,
+    keep: int | None,
+    root: Path,
+    all_written: bool = True,
+    read: bool = True,
 ) -> list[str]:
     """Chunks of ``array`` in the store at ``root`` (its first ``keep`` rows; None: all)
-    that are missing or fail to decode. Without ``all_written`` (a store from before
+    that are missing or (with ``read``) fail to decode. Without ``all_written`` (a store from before
     :data:`INTEGRITY`, which omitted chunks of fill values) a chunk counts as missing only
     if the fill value is NaN, which a run never stores."""
     fill = array.fill_value
     look = all_written or (isinstance(fill, float | np.floating) and bool(np.isnan(fill)))
     if not array.shape:
-        return _unreadable(array, (), name)
+        return _unreadable(array, (), name) if read else []
     keep = array.shape[0] if keep is None else min(keep, array.shape[0])
     step = array.chunks[0]
     dims = array.metadata.dimension_names or ("",)
@@ -389,7 +404,7 @@ def _chunk_damage(
         missing = [key for key in keys if look and not (root / array.path / key).exists()]
         if missing:
             problems.append(f"{where} missing (chunk {missing[0]})")
-        else:
+        elif read:
             problems += _unreadable(array, rows, where)
     return problems
 

@@ -326,6 +326,25 @@ def is_finished(store: str | Path) -> bool:
     return run.exists() and bool(run.attrs.get("complete"))
 
 
+def finished_damage(store: str | Path) -> list[str]:
+    """The arrays and chunk files missing from a finished task's store (read back as fill
+    values or made-up coordinates otherwise; chunks are not decoded: a stat per chunk)."""
+    return RunStore(store).damage(read=False)
+
+
+def _damaged_entry(directory: Path, entry: dict[str, Any]) -> dict[str, Any]:
+    """A finished task's manifest entry as ``failed`` when its store is damaged (the store
+    is kept: the task runs again once it is moved away)."""
+    damage = finished_damage(directory / entry["store"])
+    if damage:
+        entry.update(
+            status="failed",
+            error=f"{entry['store']} damaged ({'; '.join(damage)}): move it away to run "
+            "the task again",
+        )
+    return entry
+
+
 def _check_directory(directory: Path, sweep: Sweep) -> None:
     """Refuse a directory holding anything but this same sweep (nothing is overwritten)."""
     if (directory / MANIFEST).exists():
@@ -454,7 +473,8 @@ def run_sweep(
 ) -> SweepReport:
     """Run every unfinished task of ``sweep`` on a Dask cluster, into ``directory``.
 
-    Finished stores are skipped; unfinished ones resume from their checkpoints. Every
+    Finished stores are skipped (``failed`` and kept when arrays or chunks of one are
+    missing); unfinished ones resume from their checkpoints. Every
     worker is warmed up first (:func:`warm_workers`, with the first pending task's
     scenario). The manifest is rewritten after each task, with status ``done`` (and
     ``wall_seconds``), ``failed`` (and ``error``) or ``pending``.
@@ -480,7 +500,7 @@ def run_sweep(
             "error": None,
             "wall_seconds": previous.get(task.name, {}).get("wall_seconds") if done else None,
         }
-        entries[task.name] = entry
+        entries[task.name] = _damaged_entry(directory, entry) if done else entry
     manifest = {
         "format": FORMAT,
         "nanoblock_version": nanoblock.__version__,
@@ -539,17 +559,20 @@ def open_sweep(directory: str | Path) -> xr.Dataset:
     length and sample times, so each keeps its own, NaN-padded after its last sample. A
     task not finished is all NaN and listed in ``attrs["missing_tasks"]``; coordinate
     ``task`` names each run's store (``tasks/<task>.zarr``). Nothing is loaded until
-    computed.
+    computed. SweepError if arrays or chunks of a finished task's store are missing.
     """
     directory = Path(directory)
     manifest = read_manifest(directory)
     spec = manifest["sweep"]
     keys, seeds = spec["keys"], spec["seeds"]
     names = [entry["task"] for entry in manifest["tasks"]]
+    finished = [entry for entry in manifest["tasks"] if is_finished(directory / entry["store"])]
+    for entry in finished:
+        if _damaged_entry(directory, entry)["status"] == "failed":
+            raise SweepError(f"{directory}: {entry['error']}")
     runs = {
         entry["task"]: xr.open_zarr(directory / entry["store"], consolidated=False)
-        for entry in manifest["tasks"]
-        if is_finished(directory / entry["store"])
+        for entry in finished
     }
     if not runs:
         raise SweepError(f"{directory}: no finished task yet")
@@ -597,14 +620,16 @@ def open_sweep(directory: str | Path) -> xr.Dataset:
 
 def sweep_summary(directory: str | Path) -> str:
     """Text summary of a sweep directory: keys, values, seeds, task counts, failures.
-    A task counts as done when its store is finished, whatever the manifest says."""
+    A task counts as done when its store is finished, whatever the manifest says, and as
+    failed when arrays or chunks of its finished store are missing."""
     directory = Path(directory)
     manifest = read_manifest(directory)
     spec = manifest["sweep"]
     entries = manifest["tasks"]
     for entry in entries:
         if is_finished(directory / entry["store"]):
-            entry["status"] = "done"
+            entry.update(status="done", error=None)
+            _damaged_entry(directory, entry)
     counts = {status: sum(e["status"] == status for e in entries) for status in STATUSES}
     lines = [f"sweep                 {directory} ({manifest['format']})"]
     lines += [

@@ -312,6 +312,7 @@ DAMAGE = {
     "snapshot chunk deleted": (lambda s: (s / "block_stress/c/2/0/0").unlink(), "missing"),
     "bytes flipped": (lambda s: _flip_bytes(s / "slider_velocity/c/0"), "unreadable"),
     "array metadata deleted": (lambda s: (s / "n_events/zarr.json").unlink(), "missing"),
+    "snapshot array deleted": (lambda s: shutil.rmtree(s / "block_pinned"), "missing"),
 }
 NAMED = {
     "data chunk deleted": "friction_force: samples 0-100",
@@ -319,18 +320,37 @@ NAMED = {
     "snapshot chunk deleted": "block_stress: snapshots 2-2",
     "bytes flipped": "slider_velocity: samples 0-100",
     "array metadata deleted": "n_events: array missing",
+    "snapshot array deleted": "block_pinned: array missing",
 }
 
 
 @pytest.mark.parametrize("damage", DAMAGE)
-@pytest.mark.parametrize("command", ["info", "plot", "run"])
+@pytest.mark.parametrize("command", ["info", "plot", "run", "fit", "diagnose"])
 def test_damaged_stores_are_reported_by_array_and_range(work, damage, command) -> None:
+    """Every command that reads a run store names its damage (fit and diagnose read it as
+    data: a lost chunk would otherwise be fill values, a lost array a made-up column)."""
     harm, word = DAMAGE[damage]
     harm(work / "run.zarr")
     args = [command, str(work / "run.zarr")]
     if command == "run":
         args = ["run", str(work / "tiny.toml"), "--out", str(work / "run.zarr"), "-q"]
+    if command in ("fit", "diagnose"):
+        args += ["--out", str(work.parent / command)]
     refused(work, args, "run.zarr", "damaged", NAMED[damage], word)
+
+
+@pytest.mark.parametrize("command", ["fit", "diagnose"])
+@pytest.mark.parametrize("suffix", [".nc", ".zarr"])
+def test_a_file_that_is_not_what_its_name_says_is_refused_by_name(tmp_path, command, suffix):
+    """Garbage named .nc, and a directory named .zarr that is no zarr store."""
+    data = tmp_path / f"data{suffix}"
+    if suffix == ".nc":
+        data.write_bytes(b"not a netCDF file\n" * 10)
+    else:
+        data.mkdir()
+        (data / "notes.txt").write_text("a user's notes")
+    form = "netCDF" if suffix == ".nc" else "zarr"
+    refused(tmp_path, [command, str(data), "--out", str(tmp_path / "out")], str(data), form)
 
 
 def test_a_sweep_point_that_cannot_run_is_refused_before_any_task(tmp_path) -> None:

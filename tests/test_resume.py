@@ -185,9 +185,15 @@ def _chunks(store: Path) -> list[Path]:
     return sorted(p for p in store.rglob("*") if p.is_file() and "c" in p.relative_to(store).parts)
 
 
+def _arrays(store: Path) -> list[Path]:
+    """Every array directory of a store (data, snapshots and both checkpoint slots)."""
+    return sorted(meta.parent for meta in store.rglob("zarr.json") if (meta.parent / "c").is_dir())
+
+
 def test_deleting_any_chunk_is_reported_and_never_resumes_elsewhere(tmp_path, monkeypatch):
     """A run killed after 45 of its 101 samples, checkpointed at every sample (slots at
-    samples 44 and 45): with any one chunk deleted, the resume either refuses naming the
+    samples 44 and 45): with any one chunk or whole array deleted (a checkpoint slot's
+    attrs list its arrays), the resume either refuses naming the
     array, or (a checkpoint slot damaged) resumes from an intact checkpoint, saying so
     when it is not the last one, to the trajectory of the uninterrupted run; ``info``
     names the damage (but for the spare slot)."""
@@ -211,13 +217,17 @@ def test_deleting_any_chunk_is_reported_and_never_resumes_elsewhere(tmp_path, mo
     chunks = _chunks(killed)
     assert len(chunks) > 30
     outcomes = {"refused": 0, "resumed": 0}
-    for chunk in chunks:
+    for chunk in [*chunks, *_arrays(killed)]:
         relative = chunk.relative_to(killed)
-        array = "/".join(relative.parts[: relative.parts.index("c")])
+        parts = relative.parts
+        array = "/".join(parts[: parts.index("c")] if "c" in parts else parts)
         damaged = tmp_path / "damaged.zarr"
         shutil.rmtree(damaged, ignore_errors=True)
         shutil.copytree(killed, damaged)
-        (damaged / relative).unlink()
+        if chunk.is_dir():
+            shutil.rmtree(damaged / relative)
+        else:
+            (damaged / relative).unlink()
         spare = array.startswith("checkpoint/") and array.split("/")[1] != pointer["slot"]
         info = CliRunner().invoke(app, ["info", str(damaged)])
         assert info.exit_code == (0 if spare else 2), (relative, info.output)
@@ -235,3 +245,12 @@ def test_deleting_any_chunk_is_reported_and_never_resumes_elsewhere(tmp_path, mo
         for name in [*SAMPLES, *SNAPSHOTS, "time", "snapshot_time"]:
             np.testing.assert_array_equal(resumed[name].values, reference[name].values, name)
     assert outcomes["refused"] and outcomes["resumed"], outcomes
+    # a store from before the slots listed their arrays: the resume still names the loss
+    damaged = tmp_path / "old.zarr"
+    shutil.copytree(killed, damaged)
+    for slot in "ab":
+        zarr.open_group(damaged / "checkpoint" / slot, mode="a").attrs.pop("arrays")
+    shutil.rmtree(damaged / "checkpoint" / pointer["slot"] / "age")
+    result = CliRunner().invoke(app, ["run", str(scenario), "--out", str(damaged), "-q"])
+    assert result.exit_code == 2 and "checkpoint damaged (arrays age missing)" in result.output
+    assert "Traceback" not in result.output

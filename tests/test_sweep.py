@@ -6,6 +6,7 @@ from __future__ import annotations
 import functools
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -167,6 +168,22 @@ def test_killed_worker_loses_only_its_task_and_rerun_completes_it(
     after = modification_times(out / "tasks")
     assert {k: v for k, v in after.items() if not k.startswith("0003")} == before
     assert open_sweep(out).friction_force.notnull().any("sample").all()
+
+    # a finished store that lost an array (read back as made-up times) or a chunk (as
+    # fill values): failed, named, kept, and never combined
+    shutil.rmtree(out / "tasks/0001.zarr/time")
+    (out / "tasks/0004.zarr/friction_force/c/0").unlink()
+    damaged = modification_times(out / "tasks")
+    info = CliRunner().invoke(app, ["info", str(out)])
+    assert "6: 4 done, 2 failed" in info.output, info.output
+    assert "tasks/0001.zarr damaged (time: array missing)" in info.output
+    assert "tasks/0004.zarr damaged (friction_force: samples 0-" in info.output
+    with pytest.raises(SweepError, match=r"tasks/0001.zarr damaged \(time: array missing\)"):
+        open_sweep(out)
+    again = run_sweep(sweep, out, workers=2)
+    assert again.ran == [] and [e["task"] for e in again.entries("failed")] == ["0001", "0004"]
+    assert "move it away" in again.entries("failed")[0]["error"]
+    assert modification_times(out / "tasks") == damaged
 
 
 ONE_THREAD_AFTER_IMPORT = """
