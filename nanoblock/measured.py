@@ -392,6 +392,7 @@ def load_measurement(
         "clamped_sample": ("time", "s_ext", "s"),
         "steady_state": ("mu", "load_point_velocity"),
     }[kind]
+    _check_magnitudes(columns, first_row, path)
     drive = [name for name in ("load_point_velocity", "load_point_displacement") if name in columns]
     missing = np.zeros(len(next(iter(columns.values()))), dtype=bool)
     for name in (*required, *drive[:1]):
@@ -438,6 +439,32 @@ def load_measurement(
     attrs = {**metadata, "kind": kind, "source_file": str(path)}
     attrs.setdefault("apparatus", "spring_slider")
     return xr.Dataset(data_vars, attrs=attrs)
+
+
+MU_LIMIT = 10.0
+"""Largest |mu| accepted: dry friction coefficients lie below ~2 (rubber ~3); a larger
+value is a unit, column or typing error, refused rather than fitted."""
+MAGNITUDE_LIMIT = 1e100
+"""Largest |value| of any column (SI units): no friction record comes near it, and the
+squares of larger values overflow in the fits."""
+
+
+def _check_magnitudes(columns: dict[str, np.ndarray], first_row: int, path: Path) -> None:
+    """DataError naming the column, row and file line of the first finite |mu| above
+    :data:`MU_LIMIT` or value above :data:`MAGNITUDE_LIMIT` (non-finite values are
+    missing values, handled by the caller)."""
+    for name, values in columns.items():
+        if name == "run" or values.dtype.kind not in "fiu":
+            continue
+        limit = MU_LIMIT if name == "mu" else MAGNITUDE_LIMIT
+        bad = np.flatnonzero(np.isfinite(values) & (np.abs(values) > limit))
+        if bad.size:
+            row = int(bad[0])
+            raise DataError(
+                f"{path}: column {name!r} has {float(values[row]):.6g} at data row {row + 1} "
+                f"(file line {first_row + row}); allowed: |{name}| <= {limit:g}"
+                + (" (a friction coefficient)" if name == "mu" else " (SI units)")
+            )
 
 
 def runs(data: xr.Dataset) -> list[xr.Dataset]:

@@ -86,6 +86,29 @@ def test_unsorted_and_repeated_time_name_the_row(tmp_path, csv_text: str) -> Non
         load_measurement(_write(tmp_path, unsorted))
 
 
+@pytest.mark.parametrize(
+    ("row", "column", "value", "message"),
+    [
+        (
+            30,
+            1,
+            "1e308",
+            r"'mu' has 1e\+308 at data row 30 \(file line \d+\); allowed: \|mu\| <= 10",
+        ),
+        (7, 1, "-25", r"'mu' has -25 at data row 7 .*\|mu\| <= 10 \(a friction coefficient\)"),
+        (12, 3, "4e200", r"'load_point_displacement' has 4e\+200 at data row 12 .*1e\+100"),
+    ],
+)
+def test_values_no_record_can_hold_are_refused_by_column_and_row(
+    tmp_path, csv_text, row, column, value, message
+) -> None:
+    """A friction coefficient of 1e308 overflowed the fit (which then blamed the slip
+    after the step) and the diagnosis stored inf; |mu| > 10 and |value| > 1e100 are
+    refused where the file is read."""
+    with pytest.raises(DataError, match=message):
+        load_measurement(_write(tmp_path, _edit_row(csv_text, row, column, value)))
+
+
 def test_nan_rows_are_dropped_with_a_counting_warning(tmp_path, csv_text: str) -> None:
     text = _edit_row(_edit_row(csv_text, 10, 1, "nan"), 20, 1, "")
     with pytest.warns(DroppedRowsWarning, match=r"dropped 2 of 200 rows .* \[10, 20\]"):

@@ -423,3 +423,12 @@ def test_fit_and_diagnose_keep_a_users_files_and_replace_their_own(tmp_path, com
     for _ in range(2):
         done = CliRunner().invoke(app, [command, str(csv), "--out", str(own), *extra])
         assert done.exit_code == 0, done.output
+
+
+def test_fit_on_a_run_store_at_one_velocity_is_refused(work) -> None:
+    """A simulator store carries its drive as load-point displacement only: a single
+    velocity was fitted with a, b and D_c +- inf (rc 0) before the displacement's segments
+    were counted as the CSV's velocity column is."""
+    out = work.parent / "fit"
+    refused(work, ["fit", str(work / "run.zarr"), "--out", str(out)], "run.zarr",
+            "'load_point_displacement' gives one velocity (1e-06 m/s)")  # fmt: skip

@@ -761,7 +761,7 @@ def split_by_force(data: xr.Dataset) -> list[xr.Dataset]:
 def _check_fittable(data: xr.Dataset) -> None:
     """Refuse data a rate-and-state fit cannot say anything about, naming the column:
     non-finite or negative friction, a constant signal, or (time series) a load point that
-    never changes velocity."""
+    never changes velocity (as given, or as its displacement's segments)."""
     source = data.attrs.get("source_file", "the data")
     name = "s" if data.attrs.get("kind") == "clamped_sample" else "mu"
     if name not in data:
@@ -773,13 +773,16 @@ def _check_fittable(data: xr.Dataset) -> None:
             f"{source}: column {name!r} has {float(signal[bad[0]])!r} at data row "
             f"{bad[0] + 1}; a fit needs finite friction >= 0"
         )
-    velocities = (
-        np.unique(data["load_point_velocity"].values) if "load_point_velocity" in data else None
-    )
+    drive, velocities = "load_point_velocity", None
+    if drive in data:
+        velocities = np.unique(data[drive].values)
+    elif data.attrs.get("kind") == "time_series":  # the velocities the fit will drive with
+        drive = "load_point_displacement"
+        velocities = np.unique(np.concatenate([r.history.velocities for r in prepare_runs(data)]))
     if data.attrs.get("kind") == "time_series" and velocities is not None and velocities.size < 2:
         raise DataError(
-            f"{source}: column 'load_point_velocity' takes one value ({float(velocities[0])!r} "
-            "m/s): a rate-and-state fit needs a velocity step, a hold or several velocities"
+            f"{source}: column {drive!r} gives one velocity ({float(velocities[0]):.6g} m/s): "
+            "a rate-and-state fit needs a velocity step, a hold or several velocities"
         )
     if np.ptp(signal) == 0.0 and (velocities is None or velocities.size > 1):
         raise DataError(
