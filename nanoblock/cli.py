@@ -217,13 +217,21 @@ def _place_figure(rendered: Path, target: Path, store: Path) -> Path:
 
 
 def _output_directory(out: Path, option: str = "--out", writes: tuple[str, ...] = ()) -> None:
-    """Refuse an output directory that is an existing file (or lies under one) and, when
+    """Refuse an output directory that is an existing file (or lies under one), or whose
+    nearest existing directory refuses a new file, and, when
     the command ``writes`` these file names, one that holds anything else (a user's
     files are never overwritten; a previous output of the same command is)."""
     for path in (out, *out.parents):
         if path.exists():
             if not path.is_dir():
                 _fail(f"{path}: {option} {out} needs a directory there; it is an existing file")
+            try:  # a probe that leaves nothing behind: the work is not done for nothing
+                tempfile.TemporaryFile(dir=path).close()
+            except OSError as error:
+                _fail(
+                    f"{path}: refuses a new file ({error.strerror}); nothing was written: "
+                    f"{option} must lie in a writable directory"
+                )
             break
     if writes and out.is_dir():
         foreign = sorted(p.name for p in out.iterdir() if p.name not in writes)

@@ -432,3 +432,19 @@ def test_fit_on_a_run_store_at_one_velocity_is_refused(work) -> None:
     out = work.parent / "fit"
     refused(work, ["fit", str(work / "run.zarr"), "--out", str(out)], "run.zarr",
             "'load_point_displacement' gives one velocity (1e-06 m/s)")  # fmt: skip
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux's /proc")
+@pytest.mark.parametrize("command", ["run", "sweep", "plot", "fit", "diagnose"])
+def test_an_output_where_no_file_can_be_made_is_refused_before_work(work, command) -> None:
+    """/proc refuses new files even to root (a read-only or foreign directory for a user):
+    the commands failed with an unexpected FileNotFoundError, run after the simulation."""
+    store, out = str(work / "run.zarr"), "/proc/nanoblock-output"
+    args = {
+        "run": ["run", str(work / "tiny.toml"), "--out", f"{out}.zarr"],
+        "sweep": ["sweep", str(work / "tiny.toml"), "--out", out],
+        "plot": ["plot", store, "--out", out],
+        "fit": ["fit", store, "--out", out],
+        "diagnose": ["diagnose", store, "--out", out],
+    }[command]
+    refused(work, args, "/proc: refuses a new file", "--out must lie in a writable directory")
