@@ -13,6 +13,7 @@ from __future__ import annotations
 import gc
 import importlib
 import os
+import sys
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -50,9 +51,14 @@ class _OneMessage(TyperGroup):
 
     def invoke(self, ctx: typer.Context) -> Any:
         try:
-            return super().invoke(ctx)
+            result = super().invoke(ctx)
+            sys.stdout.flush()  # a closed pipe is found here, not at interpreter exit
+            return result
         except (typer.Exit, typer.Abort, TyperException):  # typer reports these itself
             raise
+        except BrokenPipeError:  # the reader left (``nanoblock info STORE | head``)
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            raise typer.Exit(code=1) from None
         except Exception as error:
             if ctx.meta.get(DEBUG):
                 raise

@@ -136,14 +136,17 @@ class RunStore:
         zarr.open_group(self.path, mode="a").attrs.update(attrs)
 
     def create(self, first: xr.Dataset, attrs: Mapping[str, Any]) -> None:
-        """Write the first samples and the provenance attributes, replacing only a store
-        of nanoblock's own arrays (StoreError if the path holds anything else)."""
+        """Write the provenance attributes, then the first samples, replacing only a store
+        of nanoblock's own arrays (StoreError if the path holds anything else). A run
+        interrupted in between leaves a store of its scenario without a checkpoint, which
+        the same run writes afresh."""
         self._refuse_foreign()
-        first = first.assign_attrs({**attrs, "integrity": INTEGRITY})
+        attrs = {**attrs, "integrity": INTEGRITY}
+        zarr.open_group(self.path, mode="w", zarr_format=3, attributes=attrs)
         encoding = {name: {"chunks": (TIME_CHUNK,), **CHECKED} for name in [*SAMPLES, "time"]}
-        first.to_zarr(
+        first.assign_attrs(attrs).to_zarr(
             self.path,
-            mode="w",
+            mode="a",
             zarr_format=3,
             consolidated=False,
             encoding=encoding,

@@ -76,3 +76,70 @@ def test_a_process_reports_a_bad_input_in_one_line(tmp_path) -> None:
     done = nanoblock("run", str(tmp_path))  # a directory as the scenario
     assert done.returncode == 2
     assert done.stderr == f"error: {tmp_path}: is a directory; a scenario TOML file is required\n"
+
+
+def test_a_run_interrupted_while_creating_its_store_is_rerun_by_the_same_command(
+    tmp_path, monkeypatch
+) -> None:
+    """Ctrl-C while the first samples are written left a store of only zarr.json, which
+    the same command then refused as 'not a nanoblock run (no scenario attribute)'; the
+    provenance is now written first, so the rerun writes it afresh, to the trajectory of
+    an uninterrupted run."""
+    import xarray
+
+    from nanoblock.store import SAMPLES
+
+    scenario = small_quickstart(tmp_path)
+    args = ["run", str(scenario), "--quiet", "--out"]
+    reference = CliRunner().invoke(app, [*args, str(tmp_path / "reference.zarr")])
+    assert reference.exit_code == 0, reference.output
+
+    def interrupted(self, *arguments, **options):
+        raise KeyboardInterrupt("Ctrl-C inside to_zarr")
+
+    out = tmp_path / "interrupted.zarr"
+    with monkeypatch.context() as patch:
+        patch.setattr(xarray.Dataset, "to_zarr", interrupted)
+        killed = CliRunner().invoke(app, [*args, str(out)])
+    assert killed.exit_code != 0 and (out / "zarr.json").exists()
+    again = CliRunner().invoke(app, [*args, str(out)])
+    assert again.exit_code == 0, again.output
+    rerun = xr.open_zarr(out, consolidated=False)
+    expected = xr.open_zarr(tmp_path / "reference.zarr", consolidated=False)
+    for name in [*SAMPLES, "time"]:
+        assert (rerun[name].values == expected[name].values).all(), name
+
+
+def test_a_reader_that_leaves_and_an_early_ctrl_c_end_in_one_line(tmp_path) -> None:
+    """``nanoblock info STORE | head`` (the pipe closed before the output is written)
+    ended in 'unexpected BrokenPipeError'; Ctrl-C while the command line's modules load
+    printed a traceback of the import machinery. Now: exit 1 without a word, and
+    'interrupted' with exit 130 (or death by SIGINT, if it lands before Python handles
+    it)."""
+    import signal
+    import time
+
+    out = tmp_path / "small.zarr"
+    done = nanoblock("run", str(small_quickstart(tmp_path)), "--out", str(out), "--quiet")
+    assert done.returncode == 0, done.stderr
+    path = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])
+    env = {**os.environ, "PYTHONPATH": path}
+    script = [sys.executable, "-m", "nanoblock"]
+    reader = subprocess.Popen(
+        [*script, "info", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env
+    )
+    reader.stdout.close()  # before the command can write
+    _, stderr = reader.communicate(timeout=120)
+    assert reader.returncode == 1 and stderr == b"", stderr.decode()[-2000:]
+    early = subprocess.Popen(
+        [*script, "info", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=env,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    time.sleep(0.3)  # the imports of nanoblock.cli take about a second
+    early.send_signal(signal.SIGINT)
+    _, stderr = early.communicate(timeout=120)
+    assert early.returncode in (130, -signal.SIGINT), (early.returncode, stderr[-2000:])
+    assert b"Traceback" not in stderr, stderr.decode()[-2000:]
