@@ -33,6 +33,7 @@ wrong raises :class:`DataError` naming the file, the column and the row.
 
 from __future__ import annotations
 
+import difflib
 import math
 import warnings
 from collections.abc import Mapping
@@ -91,13 +92,37 @@ _NUMERIC_METADATA = (
 )
 
 
+APPARATUS = ("spring_slider", "clamped_sample")
+"""Values of the ``apparatus`` metadata key."""
+
+_MISSPELT = 0.9
+"""difflib similarity from which an unknown metadata key of 6 or more characters counts as
+a misspelt known one (stifness_per_load, normal_forces; not stiffness_note or
+normal_stress_range, notes the lab files carry)."""
+
+
 def _parse_metadata(lines: list[str], path: Path) -> dict[str, object]:
+    """``# key: value`` lines as metadata: numbers for the numeric keys; DataError for a
+    malformed line, a non-number, an unknown apparatus or a misspelt known key (free-text
+    keys such as ``source`` or ``material`` are kept as notes)."""
+    known = [*_NUMERIC_METADATA, *_UNIT_KEYS, "apparatus"]
     metadata: dict[str, object] = {}
     for number, line in enumerate(lines, start=1):
         key, sep, value = line.lstrip("#").partition(":")
         if not sep:
             raise DataError(f"{path}: metadata line {number} is not '# key: value': {line!r}")
         key, value = key.strip(), value.strip()
+        close = difflib.get_close_matches(key, known, n=1, cutoff=_MISSPELT)
+        if key not in known and len(key) >= 6 and close:
+            raise DataError(
+                f"{path}: metadata key {key!r} on line {number} is not known; did you mean "
+                f"{close[0]!r}? (known keys: {', '.join(known)})"
+            )
+        if key == "apparatus" and value not in APPARATUS:
+            raise DataError(
+                f"{path}: metadata 'apparatus' on line {number} is {value!r}; allowed: "
+                f"{', '.join(APPARATUS)}"
+            )
         if key in _NUMERIC_METADATA:
             try:
                 metadata[key] = float(value)

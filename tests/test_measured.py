@@ -66,12 +66,29 @@ def test_good_file_reads_with_metadata_and_units(tmp_path, csv_text: str) -> Non
             lambda t: t.replace("# stiffness_per_load: 2500", "# stiffness_per_load: stiff"),
             "number",
         ),
+        (  # a typo once dropped the stated stiffness and the fit estimated one instead
+            lambda t: t.replace("# stiffness_per_load: 2500", "# stifness_per_load: 2500"),
+            "metadata key 'stifness_per_load' on line 1 is not known; did you mean "
+            "'stiffness_per_load'?",
+        ),
+        (
+            lambda t: "# apparatus: rocket\n" + t,
+            "metadata 'apparatus' on line 1 is 'rocket'; allowed: spring_slider, clamped_sample",
+        ),
     ],
 )
 def test_structural_errors_name_the_column_or_key(tmp_path, csv_text, edit, message) -> None:
     with pytest.raises(DataError) as error:
         load_measurement(_write(tmp_path, edit(csv_text)))
     assert message in str(error.value)
+
+
+def test_free_text_metadata_is_kept_as_notes(tmp_path, csv_text: str) -> None:
+    """Keys the lab files carry beside the known ones are notes, not misspellings."""
+    notes = "# stiffness_note: not stated\n# normal_stress_range: 7.9 to 8.0 MPa\n# k_sf: 3\n"
+    data = load_measurement(_write(tmp_path, notes + csv_text))
+    assert data.attrs["stiffness_note"] == "not stated" and data.attrs["k_sf"] == "3"
+    assert data.attrs["stiffness_per_load"] == 2500.0
 
 
 def test_unsorted_and_repeated_time_name_the_row(tmp_path, csv_text: str) -> None:
