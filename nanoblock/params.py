@@ -529,12 +529,6 @@ def _feasible(scenario: Scenario) -> None:
     ):
         needs = requirements(scenario)
     run, interface = scenario.run, scenario.interface
-    if scenario.total_time < run.record_every:
-        raise ValueError(
-            f"the protocol (loading.steps) lasts {scenario.total_time:.4g} s, less than "
-            f"run.record_every = {run.record_every!r} s: the run would store one sample; "
-            "lengthen the steps or record more often"
-        )
     if needs.samples > MAX_SAMPLES:
         raise ValueError(
             f"run.record_every = {run.record_every!r} s over the protocol's "
