@@ -32,7 +32,7 @@ from nanoblock.params import (
     load_scenario,
     resolve_seed,
 )
-from nanoblock.store import RunStore, StoreError
+from nanoblock.store import RunStore, StoreError, scenario_damage
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -140,6 +140,8 @@ def _open_store(path: Path) -> RunStore:
         _fail(f"{path}: zarr.json unreadable ({type(error).__name__}: {error})")
     if "scenario" not in attrs:
         _fail(f"{path}: a zarr store, but not a nanoblock run (no 'scenario' attribute)")
+    if damage := scenario_damage(attrs):
+        _fail(f"{path}: damaged: {damage[0]}")
     return store
 
 
@@ -431,10 +433,11 @@ def info(
     import xarray as xr
 
     from nanoblock.summary import provenance_text, summarize
-    from nanoblock.sweep import MANIFEST, sweep_summary
+    from nanoblock.sweep import MANIFEST, SweepError, sweep_summary
 
     if (store / MANIFEST).exists():
-        typer.echo(sweep_summary(store))
+        with _bad_input(SweepError):
+            typer.echo(sweep_summary(store))
         return
     run = _open_store(store)
     typer.echo(f"store                 {store}")

@@ -252,13 +252,13 @@ def _attrs(name: str) -> dict[str, str]:
 def _read_dataset(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object], int]:
     """A netCDF file or zarr store's 1-D variables and attrs (a nanoblock run store as
     :func:`from_simulation` converts it, refused when arrays or chunks are missing)."""
-    from nanoblock.store import RunStore
+    from nanoblock.store import RunStore, scenario_damage
 
     form = "netCDF" if path.suffix == ".nc" or path.is_file() else "zarr"
     run = RunStore(path)
     try:
         if form == "zarr" and run.exists() and "scenario" in run.attrs:
-            damage = run.damage()
+            damage = scenario_damage(run.attrs) + run.damage()
             if damage:
                 raise DataError(f"{path}: damaged nanoblock run store: {'; '.join(damage)}")
         if form == "netCDF":

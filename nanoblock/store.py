@@ -424,3 +424,15 @@ def _unreadable(array: zarr.Array, rows: slice | tuple[()], where: str) -> list[
 def scenario_of(store: RunStore) -> dict[str, Any]:
     """The resolved scenario stored with a run, as a mapping."""
     return json.loads(store.attrs["scenario"])
+
+
+def scenario_damage(attrs: Mapping[str, Any]) -> list[str]:
+    """``[why]`` when the root attr ``scenario`` of a run store is not a resolved scenario
+    (a JSON table of scenario keys), else ``[]``."""
+    try:
+        if isinstance(json.loads(attrs["scenario"]), dict):
+            return []
+        error: Exception = ValueError("not a table of scenario keys")
+    except (KeyError, TypeError, ValueError) as failure:  # JSONDecodeError is a ValueError
+        error = failure
+    return [f"root attribute 'scenario' is not a resolved scenario ({error})"]

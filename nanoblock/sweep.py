@@ -37,7 +37,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, get_args, get_origin
+from typing import Any, Literal, get_args, get_origin
 
 import dask
 import dask.array as da
@@ -46,7 +46,7 @@ import numpy as np
 import xarray as xr
 from distributed import Client, LocalCluster, as_completed
 from numba.core import config as numba_config
-from pydantic import BaseModel
+from pydantic import BaseModel, ValidationError
 from pydantic.fields import FieldInfo
 from tqdm.auto import tqdm
 
@@ -304,12 +304,51 @@ class Sweep:
         return json.loads(json.dumps(spec))
 
 
+class _Spec(BaseModel, extra="forbid"):
+    """The ``sweep`` entry of a manifest (:meth:`Sweep.identity`)."""
+
+    scenario: dict[str, Any]
+    keys: list[str]
+    values: list[list[Any]]
+    seeds: list[int]
+
+
+class _Entry(BaseModel, extra="forbid"):
+    """One task of a manifest."""
+
+    task: str
+    params: dict[str, Any]
+    seed: int
+    store: str
+    status: Literal["done", "failed", "pending"]
+    error: str | None
+    wall_seconds: float | None
+
+
+class _Manifest(BaseModel, extra="forbid"):
+    """A sweep directory's ``sweep.json``."""
+
+    format: Literal["nanoblock-sweep/1"]
+    nanoblock_version: str
+    sweep: _Spec
+    tasks: list[_Entry]
+
+
 def read_manifest(directory: str | Path) -> dict[str, Any]:
-    """The manifest of a sweep directory; SweepError if it is not one."""
+    """The manifest of a sweep directory; SweepError if it is not one, or if its manifest
+    is not valid JSON of the manifest's layout (naming the first problem)."""
     path = Path(directory) / MANIFEST
     if not path.exists():
         raise SweepError(f"{directory}: not a sweep directory (no {MANIFEST})")
-    return json.loads(path.read_text())
+    try:
+        return _Manifest.model_validate_json(path.read_bytes()).model_dump()
+    except ValidationError as error:
+        first = error.errors()[0]
+        where = ".".join(str(part) for part in first["loc"]) or "the file"
+        raise SweepError(
+            f"{path}: damaged manifest: {where}: {first['msg']}; the task stores under "
+            f"{Path(directory) / 'tasks'} are kept: move the directory away to start again"
+        ) from None
 
 
 def _write_manifest(directory: Path, manifest: Mapping[str, Any]) -> None:

@@ -285,15 +285,19 @@ def test_plot_does_not_replace_a_users_png(work) -> None:
     [
         lambda store: (store / "zarr.json").write_text("{not json"),
         lambda store: zarr.open_group(store, mode="a").attrs.pop("scenario"),
+        lambda store: zarr.open_group(store, mode="a").attrs.update(scenario='{"joint": '),
+        lambda store: zarr.open_group(store, mode="a").attrs.update(scenario="[1, 2]"),
     ],
-    ids=["garbled zarr.json", "no scenario attr"],
+    ids=["garbled zarr.json", "no scenario attr", "garbled scenario", "scenario not a table"],
 )
-@pytest.mark.parametrize("command", ["info", "plot", "run"])
+@pytest.mark.parametrize("command", ["info", "plot", "run", "fit"])
 def test_unreadable_or_foreign_stores_are_refused(work, setup: Callable, command) -> None:
     setup(work / "run.zarr")
     args = [command, str(work / "run.zarr")]
     if command == "run":
         args = ["run", str(work / "tiny.toml"), "--out", str(work / "run.zarr")]
+    if command == "fit":
+        args += ["--out", str(work.parent / "fit")]
     refused(work, args, "run.zarr")
 
 

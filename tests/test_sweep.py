@@ -277,3 +277,33 @@ def test_a_directory_that_is_not_a_sweep_is_refused(tiny: Path, tmp_path: Path) 
     assert modification_times(out) == before
     with pytest.raises(SweepError, match="not a sweep directory"):
         open_sweep(out)
+
+
+@pytest.mark.parametrize(
+    ("text", "named"),
+    [
+        ('{"format": ', "the file: Invalid JSON"),
+        ('{"format": "nanoblock-sweep/1"}', "nanoblock_version: Field required"),
+        (
+            '{"format": "nanoblock-sweep/1", "nanoblock_version": "0", "sweep": {"scenario": '
+            '{}, "keys": [], "values": [], "seeds": [1]}, "tasks": [{"task": "0000", "params": '
+            '{}, "seed": 1, "store": "tasks/0000.zarr", "status": "finished", "error": null, '
+            '"wall_seconds": null}]}',
+            "tasks.0.status: Input should be 'done', 'failed' or 'pending'",
+        ),
+    ],
+    ids=["not JSON", "fields missing", "unknown status"],
+)
+def test_a_damaged_manifest_is_named_and_nothing_is_written(tiny, tmp_path, text, named):
+    """info and a rerun of the sweep failed with an unexpected JSONDecodeError, KeyError
+    or TypeError on a damaged sweep.json."""
+    out = tmp_path / "sweep"
+    (out / "tasks").mkdir(parents=True)
+    (out / MANIFEST).write_text(text)
+    before = modification_times(out)
+    for args in (["info", str(out)], ["sweep", str(tiny), "--out", str(out), "--quiet"]):
+        result = CliRunner().invoke(app, args)
+        assert result.exit_code == 2, result.output
+        assert f"{out / MANIFEST}: damaged manifest: {named}" in result.output, result.output
+        assert "unexpected" not in result.output
+    assert modification_times(out) == before
