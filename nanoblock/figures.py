@@ -33,18 +33,25 @@ def _save(fig: Figure, path: Path) -> Path:
     return path
 
 
+def _style(run: xr.Dataset) -> dict[str, object]:
+    """Line style of a run's curves: with markers when a single sample makes no line."""
+    return {"lw": 1.0, "marker": "o" if run.sizes["time"] < 2 else None}
+
+
 def _friction_vs_slip(ax: Axes, run: xr.Dataset, title: str) -> None:
     slip_um = (run.slider_displacement - run.slider_displacement[0]) * 1e6
-    ax.plot(slip_um, run.friction_coefficient, lw=1.0)
+    ax.plot(slip_um, run.friction_coefficient, **_style(run))
     ax.set_xlabel("slider slip X - X(0) [um]")
     ax.set_ylabel("friction coefficient mu = F / W")
     ax.set_title(title or "nanoblock run")
 
 
 def _velocities(ax: Axes, run: xr.Dataset) -> None:
-    ax.plot(run.time, run.slider_velocity, lw=1.0, label="slider")
-    load_velocity = run.load_point_displacement.differentiate("time")
-    ax.plot(run.time, load_velocity, lw=1.0, ls="--", label="load point")
+    ax.plot(run.time, run.slider_velocity, label="slider", **_style(run))
+    if run.sizes["time"] >= 2:  # in numpy: dask's gradient refuses a last chunk of 1 sample
+        time = np.asarray(run.time.values)
+        load_velocity = np.gradient(np.asarray(run.load_point_displacement.values), time)
+        ax.plot(time, load_velocity, lw=1.0, ls="--", label="load point")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("velocity [m/s]")
     ax.legend(loc="best")
@@ -61,7 +68,7 @@ def plot_friction(run: xr.Dataset, path: str | Path, title: str = "") -> Path:
 def _friction_figure(run: xr.Dataset, path: Path, title: str) -> Path:
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(7, 6), constrained_layout=True)
     _friction_vs_slip(top, run, title)
-    bottom.plot(run.time, run.friction_coefficient, lw=1.0)
+    bottom.plot(run.time, run.friction_coefficient, **_style(run))
     bottom.set_xlabel("time [s]")
     bottom.set_ylabel("friction coefficient mu = F / W")
     return _save(fig, path)

@@ -148,3 +148,27 @@ def test_plot_and_info_refuse_what_is_not_a_store(tmp_path, command) -> None:
     assert result.exit_code == 2 and "not a nanoblock run store" in result.output
     missing = CliRunner().invoke(app, [command, str(tmp_path / "missing.zarr")])
     assert missing.exit_code == 2 and "does not exist" in missing.output
+
+
+@pytest.mark.parametrize(("duration", "samples"), [(1e-200, 1), (4096e-6, 4097)])
+def test_runs_of_one_sample_or_a_last_chunk_of_one_are_drawn(tmp_path, duration, samples):
+    """A protocol shorter than record_every stores one sample (a sweep's fastest tasks do)
+    and a run of 4097 samples ends in a zarr chunk of one: ``run`` failed drawing the
+    first (IndexError) and ``plot`` both (dask's gradient refuses a chunk of one)."""
+    path = tmp_path / "short.zarr"
+    simulate(
+        scenario(
+            interface={"n_contacts": 2, "blocks_per_contact": 5},
+            loading={
+                "stiffness": float("inf"),
+                "steps": [{"velocity": 1e-6, "duration": duration}],
+            },
+            run={"record_every": 1e-6},
+        ),
+        path,
+    )
+    assert xr.open_zarr(path, consolidated=False).sizes["time"] == samples
+    result = CliRunner().invoke(app, ["plot", str(path), "--out", str(tmp_path / "figures")])
+    assert result.exit_code == 0, result.output
+    for name in ("friction", "velocity"):
+        assert matplotlib.image.imread(tmp_path / "figures" / f"short_{name}.png").shape[0] > 300
