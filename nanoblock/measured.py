@@ -362,7 +362,7 @@ def _check_order(time: np.ndarray, run: np.ndarray, first_row: int, path: Path) 
         word = "repeated" if time[row] == time[row - 1] else "decreasing (unsorted)"
         raise DataError(
             f"{path}: column 'time' is {word} at data row {row + 1} (file line "
-            f"{first_row + row}): {time[row]!r} after {time[row - 1]!r}"
+            f"{first_row + row}): {float(time[row])!r} after {float(time[row - 1])!r}"
         )
 
 
@@ -449,7 +449,7 @@ def load_measurement(
             row = int(bad[0])
             raise DataError(
                 f"{path}: column 'load_point_velocity' must be {need} m/s; data row {row + 1} "
-                f"has {velocity[row]!r}"
+                f"has {float(velocity[row])!r}"
             )
     for key in ("stiffness", "stiffness_per_load", "normal_force", "k_s", "k_f", "k_ext"):
         value = metadata.get(key)
