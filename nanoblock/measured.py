@@ -433,6 +433,7 @@ def load_measurement(
             stacklevel=2,
         )
         columns = {name: values[~missing] for name, values in columns.items()}
+        metadata["dropped_rows"] = int(missing.sum())
 
     run = columns.get("run", np.zeros(len(columns[required[0]])))
     if "run" not in columns and kind == "clamped_sample" and "normal_force" in columns:

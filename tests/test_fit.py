@@ -313,7 +313,7 @@ def test_clamped_sample_curves_are_fitted_across_normal_forces(tmp_path) -> None
 
 @pytest.mark.parametrize(
     ("change", "message"),
-    [("constant", "is constant"), ("negative", ">= 0"), ("one_velocity", "one value")],
+    [("constant", "is constant"), ("negative", ">= 0"), ("one_velocity", "gives one velocity")],
 )
 def test_degenerate_data_is_refused_not_fitted(change: str, message: str) -> None:
     """A constant signal, negative friction or a single load-point velocity is refused

@@ -130,7 +130,14 @@ def test_nan_rows_are_dropped_with_a_counting_warning(tmp_path, csv_text: str) -
     text = _edit_row(_edit_row(csv_text, 10, 1, "nan"), 20, 1, "")
     with pytest.warns(DroppedRowsWarning, match=r"dropped 2 of 200 rows .* \[10, 20\]"):
         data = load_measurement(_write(tmp_path, text))
-    assert data.sizes["sample"] == 198
+    assert data.sizes["sample"] == 198 and data.attrs["dropped_rows"] == 2
+    out = tmp_path / "fit"  # the drop is part of the fit's record, not only a warning
+    result = CliRunner().invoke(app, ["fit", str(tmp_path / "data.csv"), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert json.loads((out / "fit.json").read_text())["dropped_rows"] == 2
+    assert "2 rows with a missing (NaN, inf or empty) value were dropped" in (
+        out / "report.md"
+    ).read_text()
 
 
 def test_negative_velocity_and_non_positive_steady_velocity_are_refused(tmp_path, csv_text):

@@ -88,7 +88,13 @@ def _report(result: FitResult, data: xr.Dataset, figure: str) -> str:
         "",
         f"Data: `{data.attrs.get('source_file', 'in memory')}`, {result.n_points} samples, "
         f"method `{result.method}`, reference velocity {result.reference_velocity:.4g} m/s. "
-        + stiffness_note,
+        + stiffness_note
+        + (
+            f" {data.attrs['dropped_rows']} rows with a missing (NaN, inf or empty) value "
+            "were dropped before the fit."
+            if data.attrs.get("dropped_rows")
+            else ""
+        ),
         "",
         f"**Result.** a - b = {a - b:.3g}: {regime}. RMS residual {result.rms_residual:.3g}; "
         f"lag-1 autocorrelation of the residuals {structure['lag1_autocorrelation']:.2f} "
@@ -122,16 +128,20 @@ def write_fit(
 ) -> dict[str, Path]:
     """Write ``fit.json``, ``report.md`` and ``fit.png`` into directory ``out``; with
     ``steps`` (:func:`~nanoblock.rsf.steps.compare_steps`) the per-step comparison goes
-    into the report and under ``per_step`` in ``fit.json``."""
+    into the report and under ``per_step`` in ``fit.json``. ``dropped_rows`` in
+    ``fit.json`` (and a sentence of the report) counts the rows dropped for a missing
+    value when the file was read."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     figure = plot_fit(result, data, out / "fit.png")
     report = out / "report.md"
     text = _report(result, data, figure.name)
     written = result.write_json(out / "fit.json")
+    extra = {"dropped_rows": int(data.attrs.get("dropped_rows", 0))}
     if steps is not None:
         text += "\n" + step_text(steps)
-        summary = json.loads(written.read_text())
-        written.write_text(json.dumps({**summary, "per_step": steps.to_json()}, indent=2) + "\n")
+        extra["per_step"] = steps.to_json()
+    summary = json.loads(written.read_text())
+    written.write_text(json.dumps({**summary, **extra}, indent=2) + "\n")
     report.write_text(text)
     return {"json": written, "report": report, "figure": figure}
