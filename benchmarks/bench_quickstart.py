@@ -62,11 +62,15 @@ def chain_scenario(directory: Path) -> Path:
 
 
 def run_quickstart(
-    nanoblock: Path, cache: Path, threads: int | None = None, scenario: Path | None = None
+    nanoblock: Path,
+    cache: Path,
+    threads: int | None = None,
+    scenario: Path | None = None,
+    environment: dict[str, str] | None = None,
 ) -> dict:
     """Wall time [s] of one ``nanoblock run --quiet`` of the quickstart (or ``scenario``),
-    and its stderr."""
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache)}
+    and its stderr; ``environment``: variables to add (an OpenMP wait policy, say)."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), **(environment or {})}
     if threads is not None:
         env["NUMBA_NUM_THREADS"] = str(threads)
     load = os.getloadavg()

@@ -464,8 +464,11 @@ ROWS = typer.Option(help="xlook rows FIRST:LAST (inclusive, after the recipe)")
 
 def _xlook(recipe: Path | None, rows: str | None) -> dict[str, Any]:
     """Keyword arguments of the readers for an xlook binary (none for other files)."""
+    from nanoblock.measured import DataError
     from nanoblock.xlook import parse_rows
 
+    if recipe is not None and not recipe.is_file():
+        raise DataError(f"{recipe}: --recipe names no file; give the xlook reduction recipe")
     return {"recipe": recipe, "rows": parse_rows(rows) if rows else None}
 
 

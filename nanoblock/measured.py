@@ -191,6 +191,12 @@ def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object], int
     if n_meta == len(lines):
         raise DataError(f"{path}: no header row after the metadata")
     header = [name.strip() for name in lines[n_meta].split(",")]
+    others = [mark for mark in (";", "\t", "|") if mark in lines[n_meta]]
+    if len(header) == 1 and others:
+        raise DataError(
+            f"{path}: the header {lines[n_meta].strip()!r} has no comma but {others[0]!r}: "
+            "the columns of a CSV are separated by commas (with '.' as decimal mark)"
+        )
     if len(set(header)) != len(header):
         raise DataError(f"{path}: repeated column names in the header {header}")
     rows = [line.split(",") for line in lines[n_meta + 1 :] if line.strip()]

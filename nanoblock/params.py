@@ -605,10 +605,11 @@ def from_mapping(data: dict[str, Any], source: str = "scenario") -> Scenario:
 
 
 def read_toml(path: str | Path) -> dict[str, Any]:
-    """The raw mapping of a TOML scenario file; ``ScenarioError`` if missing or invalid."""
+    """The raw mapping of a TOML scenario file (UTF-8, with or without the byte-order mark
+    some editors write); ``ScenarioError`` if missing or invalid."""
     path = Path(path)
     try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
+        return tomllib.loads(path.read_text(encoding="utf-8-sig"))  # a byte-order mark too
     except FileNotFoundError:
         raise ScenarioError(f"{path}: scenario file not found") from None
     except IsADirectoryError:

@@ -4,6 +4,7 @@ dropped rows counted; ``nanoblock fit`` end to end."""
 from __future__ import annotations
 
 import json
+import re
 import warnings
 from pathlib import Path
 
@@ -83,6 +84,16 @@ def test_structural_errors_name_the_column_or_key(tmp_path, csv_text, edit, mess
     assert message in str(error.value)
 
 
+@pytest.mark.parametrize("mark", [";", "\t"])
+def test_a_csv_with_another_separator_is_told_so(tmp_path, csv_text: str, mark: str) -> None:
+    """A semicolon CSV was refused as 'column time;mu;... must be numeric'."""
+    text = "\n".join(
+        line if line.startswith("#") else line.replace(",", mark) for line in csv_text.splitlines()
+    )
+    with pytest.raises(DataError, match=re.escape(f"has no comma but {mark!r}: the columns")):
+        load_measurement(_write(tmp_path, text))
+
+
 def test_free_text_metadata_is_kept_as_notes(tmp_path, csv_text: str) -> None:
     """Keys the lab files carry beside the known ones are notes, not misspellings."""
     notes = "# stiffness_note: not stated\n# normal_stress_range: 7.9 to 8.0 MPa\n# k_sf: 3\n"
@@ -135,9 +146,10 @@ def test_nan_rows_are_dropped_with_a_counting_warning(tmp_path, csv_text: str) -
     result = CliRunner().invoke(app, ["fit", str(tmp_path / "data.csv"), "--out", str(out)])
     assert result.exit_code == 0, result.output
     assert json.loads((out / "fit.json").read_text())["dropped_rows"] == 2
-    assert "2 rows with a missing (NaN, inf or empty) value were dropped" in (
-        out / "report.md"
-    ).read_text()
+    assert (
+        "2 rows with a missing (NaN, inf or empty) value were dropped"
+        in (out / "report.md").read_text()
+    )
 
 
 def test_negative_velocity_and_non_positive_steady_velocity_are_refused(tmp_path, csv_text):

@@ -84,6 +84,14 @@ def test_cli_refuses_bad_scenario_with_exit_code_2(tmp_path) -> None:
     assert not (tmp_path / "x.zarr").exists()
 
 
+def test_a_scenario_saved_with_a_byte_order_mark_reads_as_without(tmp_path) -> None:
+    """Some editors start UTF-8 files with a BOM: it was 'not valid TOML (Invalid
+    statement (at line 1, column 1))'."""
+    marked = tmp_path / "bom.toml"
+    marked.write_bytes(b"\xef\xbb\xbf" + default_scenario().read_bytes())
+    assert load_scenario(marked) == load_scenario(default_scenario())
+
+
 def test_missing_file_is_a_clear_error(tmp_path) -> None:
     with pytest.raises(ScenarioError, match="not found"):
         load_scenario(tmp_path / "nope.toml")

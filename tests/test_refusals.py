@@ -204,6 +204,8 @@ OPTIONS: list[tuple[list[str], list[str]]] = [
     (["diagnose", "{file}", "--out", "{file}"], ["user.txt", "existing file"]),
     (["diagnose", "{file}", "--workers", "0"], ["--workers"]),
     (["diagnose", "{file}", "--closure", "bogus"], ["--closure", "'bogus'", "auto"]),
+    (["fit", "{file}", "--recipe", "{tmp}/p655_r", "--out", "{tmp}/f"], ["p655_r", "--recipe"]),
+    (["diagnose", "{file}", "--recipe", "{tmp}/nofile", "--out", "{tmp}/d"], ["nofile"]),
     (["plot", "{tmp}"], ["not a nanoblock run store"]),
     (["plot", "{tmp}/missing.zarr"], ["missing.zarr", "does not exist"]),
     (["info", "{tmp}"], ["not a nanoblock run store"]),
