@@ -133,6 +133,8 @@ def _open_store(path: Path) -> RunStore:
         _fail(f"{path}: does not exist; give a run store (zarr directory)")
     store = RunStore(path)
     if not store.exists():
+        if damage := store.root_damage():
+            _fail(f"{path}: damaged: {damage[0]}")
         _fail(f"{path}: not a nanoblock run store (no zarr.json)")
     try:
         attrs = store.attrs
@@ -159,6 +161,8 @@ def _intact(store: RunStore, checkpoint: bool = False) -> None:
 def _claim_store(out: Path, scenario: Scenario) -> None:
     """Refuse an ``--out`` that is not a new path, an empty directory or a run store of
     this scenario and seed (so nothing else can be replaced)."""
+    if damage := RunStore(out).root_damage():
+        _fail(f"{out}: damaged: {damage[0]}; nothing was written")
     if out.is_dir() and not RunStore(out).exists():
         entries = sorted(entry.name for entry in out.iterdir())
         if entries:

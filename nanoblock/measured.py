@@ -263,8 +263,10 @@ def _read_dataset(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object],
     form = "netCDF" if path.suffix == ".nc" or path.is_file() else "zarr"
     run = RunStore(path)
     try:
-        if form == "zarr" and run.exists() and "scenario" in run.attrs:
-            damage = scenario_damage(run.attrs) + run.damage()
+        if form == "zarr":
+            damage = run.root_damage()
+            if run.exists() and "scenario" in run.attrs:
+                damage = scenario_damage(run.attrs) + run.damage()
             if damage:
                 raise DataError(f"{path}: damaged nanoblock run store: {'; '.join(damage)}")
         if form == "netCDF":

@@ -445,6 +445,17 @@ class Scenario(_Section):
             )
         return self
 
+    @model_validator(mode="after")
+    def _steady_start_moves(self) -> Self:
+        holds = all(step.hold is not None for step in self.loading.steps)
+        if self.run.initial_state == "steady" and holds:
+            raise ValueError(
+                "run.initial_state = 'steady' starts in steady sliding at the first moving "
+                "segment's velocity, but every loading.steps segment is a hold: add a moving "
+                "segment or start 'unloaded'"
+            )
+        return self
+
     @property
     def total_time(self) -> float:
         """Duration of the whole protocol [s]."""

@@ -131,6 +131,14 @@ class RunStore:
         """Root attributes (provenance, progress, checkpoint pointer)."""
         return dict(zarr.open_group(self.path, mode="r").attrs)
 
+    def root_damage(self) -> list[str]:
+        """``[why]`` when the path is a directory of run-store arrays without the root
+        ``zarr.json`` (a store whose root metadata was lost), else ``[]``."""
+        if self.exists() or not self.path.is_dir():
+            return []
+        ours = sorted(set(SAMPLES) & {entry.name for entry in self.path.iterdir()})
+        return [f"root zarr.json missing (it holds {', '.join(ours[:3])}, ...)"] if ours else []
+
     def update_attrs(self, **attrs: Any) -> None:
         """Set root attributes."""
         zarr.open_group(self.path, mode="a").attrs.update(attrs)

@@ -390,3 +390,15 @@ def test_fit_command_reports_per_step_parameters(tmp_path) -> None:
     assert "per-step parameters differ" in result.output
     assert json.loads((out / "fit.json").read_text())["per_step"]["differ"] is True
     assert "## Per-step against shared parameters" in (out / "report.md").read_text()
+
+
+def test_a_window_too_narrow_for_any_step_says_so() -> None:
+    """A window of 1 nm around a step was refused as 'no change of load-point velocity',
+    which the record has."""
+    from nanoblock.rsf.windows import step_windows
+
+    truth = {"mu0": 0.6, "a": 0.01, "b": 0.013, "dc": 2e-5, "v0": 1e-6}
+    data = record("aging", truth, "velocity_step", 2500.0, np.random.default_rng(3), n_samples=200)
+    with pytest.raises(DataError, match=r"--window 1e-09,1e-09 m holds fewer than two samples"):
+        step_windows(data, 1e-9, 1e-9)
+    assert step_windows(data, 1e-4, 1e-4).sizes["sample"] > 100  # a sane window keeps data

@@ -82,6 +82,11 @@ def work(finished, tmp_path) -> Path:
 
 
 SCENARIO_EDITS = [
+    (  # refused only once the run started, naming no file
+        "steps = [{ velocity = 1e-6, displacement = 1e-8 }]",
+        "steps = [{ hold = 0.01 }]",
+        ["bad.toml", "run.initial_state = 'steady'", "every loading.steps segment is a hold"],
+    ),
     ("block_size = 2.75e-9", "block_size = -1e-9", ["joint.block_size", "-1e-09"]),
     ("threshold_stress = 1.0e8", "threshold_stress = 0.0", ["joint.threshold_stress"]),
     ("temperature = 300.0", "temperature = true", ["joint.temperature", "True"]),
@@ -319,6 +324,7 @@ DAMAGE = {
     "bytes flipped": (lambda s: _flip_bytes(s / "slider_velocity/c/0"), "unreadable"),
     "array metadata deleted": (lambda s: (s / "n_events/zarr.json").unlink(), "missing"),
     "snapshot array deleted": (lambda s: shutil.rmtree(s / "block_pinned"), "missing"),
+    "root metadata deleted": (lambda s: (s / "zarr.json").unlink(), "missing"),
 }
 NAMED = {
     "data chunk deleted": "friction_force: samples 0-100",
@@ -327,6 +333,7 @@ NAMED = {
     "bytes flipped": "slider_velocity: samples 0-100",
     "array metadata deleted": "n_events: array missing",
     "snapshot array deleted": "block_pinned: array missing",
+    "root metadata deleted": "root zarr.json missing",
 }
 
 

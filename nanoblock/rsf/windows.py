@@ -38,12 +38,13 @@ def step_windows(data: xr.Dataset, before: float, after: float) -> xr.Dataset:
     """The samples within ``before`` [m] of load-point travel before each change of
     load-point velocity and ``after`` [m] after it, one run per step (``run`` = 0, 1, ...
     in file order; attribute ``windows`` says which run and step each came from)."""
-    pieces, labels = [], []
+    pieces, labels, steps = [], [], 0
     for index, (part, run) in enumerate(zip(runs(data), prepare_runs(data), strict=True)):
         history = run.history
         origin = float(history.displacement_at(run.time[0]))
         edges = np.concatenate([[-np.inf], history.starts[1:], [np.inf]])
         for k, start in enumerate(history.starts[1:]):
+            steps += 1
             at = float(history.displacement_at(start)) - origin
             travel = run.load_point_displacement
             keep = (run.time > edges[k]) & (run.time < edges[k + 2])
@@ -53,10 +54,13 @@ def step_windows(data: xr.Dataset, before: float, after: float) -> xr.Dataset:
             piece = part.isel(sample=keep)
             pieces.append(piece.assign(run=("sample", np.full(int(keep.sum()), len(labels)))))
             labels.append(f"run {index} step {k + 1} at t = {start:.6g} s")
+    source = data.attrs.get("source_file", "the data")
+    if not steps:
+        raise DataError(f"{source}: no change of load-point velocity to put a window around")
     if not pieces:
         raise DataError(
-            f"{data.attrs.get('source_file', 'the data')}: no change of load-point velocity to "
-            "put a window around"
+            f"{source}: --window {before:g},{after:g} m holds fewer than two samples, or none "
+            f"after the step, around each of its {steps} velocity changes: widen the window"
         )
     out = xr.concat(pieces, dim="sample")
     out["run"].attrs = {"units": "1", "long_name": "fit window (one per step)"}
