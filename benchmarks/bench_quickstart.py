@@ -24,6 +24,8 @@ import sys
 import tempfile
 import time
 import tomllib
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from host import describe
@@ -88,6 +90,28 @@ def run_quickstart(
     return {"wall": wall, "load_averages": load, "stderr": done.stderr.strip()}
 
 
+@contextmanager
+def busy_core() -> Iterator[None]:
+    """A busy loop holding one core for the duration of the block."""
+    hog = subprocess.Popen([sys.executable, "-c", BUSY])
+    try:
+        yield
+    finally:
+        hog.kill()
+
+
+def save_results(results: dict, name: str) -> None:
+    """Print each timed run, stamp ``results`` with the time and host and write them to
+    ``benchmarks/<name>``."""
+    for key, result in results.items():
+        if isinstance(result, dict) and "wall" in result:
+            print(f"{key}: {result['wall']:.1f} s (load averages {result['load_averages']})")
+    results["timestamp"] = time.strftime("%Y-%m-%d %H:%M")
+    results["cpu_count"] = os.cpu_count()
+    results["host"] = describe()
+    (ROOT / "benchmarks" / name).write_text(json.dumps(results, indent=2))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--busy", action="store_true", help="also 1 vs 2 threads, one core busy")
@@ -101,22 +125,14 @@ def main() -> None:
         results["chain, cold"] = run_quickstart(nanoblock, Path(cache), scenario=chain)
         results["chain, warm"] = run_quickstart(nanoblock, Path(cache), scenario=chain)
         if args.busy:
-            hog = subprocess.Popen([sys.executable, "-c", BUSY])
-            try:
+            with busy_core():
                 for threads, label in ((1, "1 thread"), (None, "default"), (2, "2 threads")):
                     key = f"warm, one core busy, {label}"
                     results[key] = run_quickstart(nanoblock, Path(cache), threads)
-            finally:
-                hog.kill()
-    for name, result in results.items():
-        print(f"{name}: {result['wall']:.1f} s (load averages {result['load_averages']})")
     results["cold"]["target"], results["warm"]["target"] = "< 30 s idle", "< 10 s idle"
     for name in ("", "chain, "):
         results[f"{name}compile"] = results[f"{name}cold"]["wall"] - results[f"{name}warm"]["wall"]
-    results["timestamp"] = time.strftime("%Y-%m-%d %H:%M")
-    results["cpu_count"] = os.cpu_count()
-    results["host"] = describe()
-    (ROOT / "benchmarks" / "results_quickstart.json").write_text(json.dumps(results, indent=2))
+    save_results(results, "results_quickstart.json")
 
 
 if __name__ == "__main__":

@@ -16,16 +16,10 @@ Run: ``python benchmarks/bench_wait_policy.py``; writes
 
 from __future__ import annotations
 
-import json
-import os
-import subprocess
-import sys
 import tempfile
-import time
 from pathlib import Path
 
-from bench_quickstart import BUSY, ROOT, fresh_install, run_quickstart
-from host import describe
+from bench_quickstart import busy_core, fresh_install, run_quickstart, save_results
 
 POLICIES = {
     "libgomp default": {},
@@ -45,22 +39,14 @@ def main() -> None:
                 nanoblock, Path(cache), 2, environment=environment
             )
         results["idle, default threads"] = run_quickstart(nanoblock, Path(cache))
-        hog = subprocess.Popen([sys.executable, "-c", BUSY])
-        try:
+        with busy_core():
             for policy, environment in POLICIES.items():
                 results[f"busy, 2 threads, {policy}"] = run_quickstart(
                     nanoblock, Path(cache), 2, environment=environment
                 )
             results["busy, 1 thread"] = run_quickstart(nanoblock, Path(cache), 1)
             results["busy, default threads"] = run_quickstart(nanoblock, Path(cache))
-        finally:
-            hog.kill()
-    for name, result in results.items():
-        print(f"{name}: {result['wall']:.1f} s (load averages {result['load_averages']})")
-    results["timestamp"] = time.strftime("%Y-%m-%d %H:%M")
-    results["cpu_count"] = os.cpu_count()
-    results["host"] = describe()
-    (ROOT / "benchmarks" / "results_wait_policy.json").write_text(json.dumps(results, indent=2))
+    save_results(results, "results_wait_policy.json")
 
 
 if __name__ == "__main__":

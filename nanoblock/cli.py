@@ -161,9 +161,10 @@ def _intact(store: RunStore, checkpoint: bool = False) -> None:
 def _claim_store(out: Path, scenario: Scenario) -> None:
     """Refuse an ``--out`` that is not a new path, an empty directory or a run store of
     this scenario and seed (so nothing else can be replaced)."""
-    if damage := RunStore(out).root_damage():
+    store = RunStore(out)
+    if damage := store.root_damage():
         _fail(f"{out}: damaged: {damage[0]}; nothing was written")
-    if out.is_dir() and not RunStore(out).exists():
+    if out.is_dir() and not store.exists():
         entries = sorted(entry.name for entry in out.iterdir())
         if entries:
             _fail(
@@ -182,7 +183,7 @@ def _claim_store(out: Path, scenario: Scenario) -> None:
                 "new path or a store of this same scenario and seed"
             )
         if stored.get("complete"):
-            _intact(RunStore(out))
+            _intact(store)
 
 
 def _claim_file(target: Path, store: Path, option: str) -> None:

@@ -112,8 +112,8 @@ def _parse_metadata(lines: list[str], path: Path) -> dict[str, object]:
         if not sep:
             raise DataError(f"{path}: metadata line {number} is not '# key: value': {line!r}")
         key, value = key.strip(), value.strip()
-        close = difflib.get_close_matches(key, known, n=1, cutoff=_MISSPELT)
-        if key not in known and len(key) >= 6 and close:
+        unknown = key not in known and len(key) >= 6
+        if unknown and (close := difflib.get_close_matches(key, known, n=1, cutoff=_MISSPELT)):
             raise DataError(
                 f"{path}: metadata key {key!r} on line {number} is not known; did you mean "
                 f"{close[0]!r}? (known keys: {', '.join(known)})"
@@ -265,8 +265,9 @@ def _read_dataset(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object],
     try:
         if form == "zarr":
             damage = run.root_damage()
-            if run.exists() and "scenario" in run.attrs:
-                damage = scenario_damage(run.attrs) + run.damage()
+            attrs = run.attrs if run.exists() else {}
+            if "scenario" in attrs:  # a run store: its own checks
+                damage = scenario_damage(attrs) + run.damage()
             if damage:
                 raise DataError(f"{path}: damaged nanoblock run store: {'; '.join(damage)}")
         if form == "netCDF":

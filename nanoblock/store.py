@@ -302,7 +302,7 @@ class RunStore:
         for name in sorted(present):
             where = f"checkpoint/{slot}/{name}"
             problems += _chunk_damage(group[name], where, None, self.path, checked)
-        if not problems and not list(group.array_keys()):
+        if not problems and not present:
             problems.append(f"checkpoint/{slot}: holds no arrays")
         return problems
 

@@ -58,10 +58,12 @@ from nanoblock.store import COORDINATES, SAMPLES, TIME_CHUNK, RunStore, Variable
 MANIFEST = "sweep.json"
 """Name of the manifest file in a sweep directory."""
 
-FORMAT = "nanoblock-sweep/1"
+Format = Literal["nanoblock-sweep/1"]
+FORMAT: str = get_args(Format)[0]
 """Manifest format tag."""
 
-STATUSES = ("done", "failed", "pending")
+Status = Literal["done", "failed", "pending"]
+STATUSES: tuple[str, ...] = get_args(Status)
 """Task states in the manifest."""
 
 WORKER_ENV = {"NUMBA_NUM_THREADS": "1"}
@@ -320,7 +322,7 @@ class _Entry(BaseModel, extra="forbid"):
     params: dict[str, Any]
     seed: int
     store: str
-    status: Literal["done", "failed", "pending"]
+    status: Status
     error: str | None
     wall_seconds: float | None
 
@@ -328,7 +330,7 @@ class _Entry(BaseModel, extra="forbid"):
 class _Manifest(BaseModel, extra="forbid"):
     """A sweep directory's ``sweep.json``."""
 
-    format: Literal["nanoblock-sweep/1"]
+    format: Format
     nanoblock_version: str
     sweep: _Spec
     tasks: list[_Entry]
@@ -365,16 +367,12 @@ def is_finished(store: str | Path) -> bool:
     return run.exists() and bool(run.attrs.get("complete"))
 
 
-def finished_damage(store: str | Path) -> list[str]:
-    """The arrays and chunk files missing from a finished task's store (read back as fill
-    values or made-up coordinates otherwise; chunks are not decoded: a stat per chunk)."""
-    return RunStore(store).damage(read=False)
-
-
 def _damaged_entry(directory: Path, entry: dict[str, Any]) -> dict[str, Any]:
-    """A finished task's manifest entry as ``failed`` when its store is damaged (the store
-    is kept: the task runs again once it is moved away)."""
-    damage = finished_damage(directory / entry["store"])
+    """A finished task's manifest entry as ``failed`` when arrays or chunk files of its
+    store are missing (read back as made-up coordinates or fill values otherwise; chunks
+    are not decoded: a stat per chunk). The store is kept: the task runs again once it is
+    moved away."""
+    damage = RunStore(directory / entry["store"]).damage(read=False)
     if damage:
         entry.update(
             status="failed",

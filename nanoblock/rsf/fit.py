@@ -558,6 +558,7 @@ def _time_series_setup(
     """Velocity steps and slide-hold-slide: the spring-slider from steady sliding (or, with
     ``options.initial_state``, from a fitted state and slip-velocity offset per run)."""
     prepared = prepare_runs(data)
+    _check_drive(data, prepared)
     v0 = float(prepared[0].history.velocities[0])
     if not v0 > 0.0:
         raise DataError("the first sample must be in steady sliding (load-point velocity > 0)")
@@ -758,10 +759,24 @@ def split_by_force(data: xr.Dataset) -> list[xr.Dataset]:
     return [data.isel(sample=force == value) for value in dict.fromkeys(force)]
 
 
+def _check_drive(data: xr.Dataset, prepared: Sequence[RunData]) -> None:
+    """Refuse a time series whose load point keeps one velocity (the segments of its
+    load-point histories, from the velocity column or the displacement's finite
+    differences), naming the column the drive came from."""
+    velocities = np.unique(np.concatenate([run.history.velocities for run in prepared]))
+    if velocities.size < 2:
+        drive = next(n for n in ("load_point_velocity", "load_point_displacement") if n in data)
+        raise DataError(
+            f"{data.attrs.get('source_file', 'the data')}: column {drive!r} gives one velocity "
+            f"({float(velocities[0]):.6g} m/s): a rate-and-state fit needs a velocity step, a "
+            "hold or several velocities"
+        )
+
+
 def _check_fittable(data: xr.Dataset) -> None:
     """Refuse data a rate-and-state fit cannot say anything about, naming the column:
-    non-finite or negative friction, a constant signal, or (time series) a load point that
-    never changes velocity (as given, or as its displacement's segments)."""
+    non-finite or negative friction, or a constant signal (unless the load point keeps
+    one velocity, which :func:`_check_drive` names)."""
     source = data.attrs.get("source_file", "the data")
     name = "s" if data.attrs.get("kind") == "clamped_sample" else "mu"
     if name not in data:
@@ -773,17 +788,9 @@ def _check_fittable(data: xr.Dataset) -> None:
             f"{source}: column {name!r} has {float(signal[bad[0]])!r} at data row "
             f"{bad[0] + 1}; a fit needs finite friction >= 0"
         )
-    drive, velocities = "load_point_velocity", None
-    if drive in data:
-        velocities = np.unique(data[drive].values)
-    elif data.attrs.get("kind") == "time_series":  # the velocities the fit will drive with
-        drive = "load_point_displacement"
-        velocities = np.unique(np.concatenate([r.history.velocities for r in prepare_runs(data)]))
-    if data.attrs.get("kind") == "time_series" and velocities is not None and velocities.size < 2:
-        raise DataError(
-            f"{source}: column {drive!r} gives one velocity ({float(velocities[0]):.6g} m/s): "
-            "a rate-and-state fit needs a velocity step, a hold or several velocities"
-        )
+    velocities = (
+        np.unique(data["load_point_velocity"].values) if "load_point_velocity" in data else None
+    )
     if np.ptp(signal) == 0.0 and (velocities is None or velocities.size > 1):
         raise DataError(
             f"{source}: column {name!r} is constant ({float(signal[0])!r}): there is no rate "
