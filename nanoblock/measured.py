@@ -27,8 +27,9 @@ A simulator run store (the zarr directory of ``nanoblock run``, recognised by it
 simulated and measured data go through one fitting path. The result has one dimension,
 ``sample``; every variable carries ``units`` and ``long_name``. Time must increase within
 a run (in a clamped-sample file without ``run``, each normal force is a run). Rows with a missing
-(NaN) required value are dropped with a warning that counts them; anything else that is
-wrong raises :class:`DataError` naming the file, the column and the row.
+(NaN or empty) required value are dropped with a warning that counts them; anything else
+that is wrong (an infinite value among them) raises :class:`DataError` naming the file,
+the column and the row.
 """
 
 from __future__ import annotations
@@ -432,7 +433,7 @@ def load_measurement(
     for name in (*required, *drive[:1]):
         missing |= ~np.isfinite(columns[name])
     if missing.all():
-        raise DataError(f"{path}: every row has a missing (NaN) value in {list(required)}")
+        raise DataError(f"{path}: every row has a missing (NaN or empty) value in {list(required)}")
     if missing.any():
         rows = np.flatnonzero(missing)[:5] + 1
         warnings.warn(
@@ -485,14 +486,15 @@ squares of larger values overflow in the fits."""
 
 
 def _check_magnitudes(columns: dict[str, np.ndarray], first_row: int, path: Path) -> None:
-    """DataError naming the column, row and file line of the first finite |mu| above
-    :data:`MU_LIMIT` or value above :data:`MAGNITUDE_LIMIT` (non-finite values are
-    missing values, handled by the caller)."""
+    """DataError naming the column, row and file line of the first infinite value, |mu|
+    above :data:`MU_LIMIT` or value above :data:`MAGNITUDE_LIMIT` (NaN is a missing value,
+    handled by the caller; inf is no measurement, and dropping it would hide an overflow
+    such as 1e400)."""
     for name, values in columns.items():
         if name == "run" or values.dtype.kind not in "fiu":
             continue
         limit = MU_LIMIT if name == "mu" else MAGNITUDE_LIMIT
-        bad = np.flatnonzero(np.isfinite(values) & (np.abs(values) > limit))
+        bad = np.flatnonzero(~np.isnan(values) & ~(np.abs(values) <= limit))
         if bad.size:
             row = int(bad[0])
             raise DataError(

@@ -90,7 +90,7 @@ def _report(result: FitResult, data: xr.Dataset, figure: str) -> str:
         f"method `{result.method}`, reference velocity {result.reference_velocity:.4g} m/s. "
         + stiffness_note
         + (
-            f" {data.attrs['dropped_rows']} rows with a missing (NaN, inf or empty) value "
+            f" {data.attrs['dropped_rows']} rows with a missing (NaN or empty) value "
             "were dropped before the fit."
             if data.attrs.get("dropped_rows")
             else ""
