@@ -32,7 +32,7 @@ from nanoblock.params import (
     load_scenario,
     resolve_seed,
 )
-from nanoblock.store import RunStore, StoreError, scenario_damage
+from nanoblock.store import UNSTARTED, RunStore, StoreError, scenario_damage
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -150,6 +150,8 @@ def _open_store(path: Path) -> RunStore:
 def _intact(store: RunStore, checkpoint: bool = False) -> None:
     """Refuse a store with missing or unreadable chunks, naming array and sample range
     (with ``checkpoint``, those of an unfinished run's last checkpoint too)."""
+    if store.unstarted():
+        _fail(f"{store.path}: {UNSTARTED}")
     damage = store.damage()
     pointer = store.attrs.get("checkpoint")
     if checkpoint and pointer and not store.attrs.get("complete"):
@@ -447,6 +449,9 @@ def info(
     run = _open_store(store)
     typer.echo(f"store                 {store}")
     typer.echo(provenance_text(xr.Dataset(attrs=run.attrs)))
+    if run.unstarted():
+        typer.echo(UNSTARTED)
+        return
     _intact(run, checkpoint=True)
     opened = run.open()
     if opened.sizes["time"]:

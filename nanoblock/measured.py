@@ -259,7 +259,7 @@ def _attrs(name: str) -> dict[str, str]:
 def _read_dataset(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object], int]:
     """A netCDF file or zarr store's 1-D variables and attrs (a nanoblock run store as
     :func:`from_simulation` converts it, refused when arrays or chunks are missing)."""
-    from nanoblock.store import RunStore, scenario_damage
+    from nanoblock.store import UNSTARTED, RunStore, scenario_damage
 
     form = "netCDF" if path.suffix == ".nc" or path.is_file() else "zarr"
     run = RunStore(path)
@@ -267,6 +267,8 @@ def _read_dataset(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object],
         if form == "zarr":
             damage = run.root_damage()
             attrs = run.attrs if run.exists() else {}
+            if "scenario" in attrs and run.unstarted():
+                raise DataError(f"{path}: {UNSTARTED}")
             if "scenario" in attrs:  # a run store: its own checks
                 damage = scenario_damage(attrs) + run.damage()
             if damage:

@@ -116,6 +116,13 @@ def dataset(
     return xr.Dataset(data_vars, coords)
 
 
+UNSTARTED = (
+    "unfinished: interrupted before its first samples were stored; the same `nanoblock run` "
+    "command writes it afresh"
+)
+"""What a store that :meth:`RunStore.unstarted` is holds, as the commands say it."""
+
+
 class RunStore:
     """A run's zarr v3 store: samples, snapshots, provenance attrs and checkpoints."""
 
@@ -138,6 +145,17 @@ class RunStore:
             return []
         ours = sorted(set(SAMPLES) & {entry.name for entry in self.path.iterdir()})
         return [f"root zarr.json missing (it holds {', '.join(ours[:3])}, ...)"] if ours else []
+
+    def unstarted(self) -> bool:
+        """Whether the run was interrupted before its first samples were stored: the
+        provenance is written (:meth:`create`), no sample array and no checkpoint is."""
+        attrs = self.attrs
+        if attrs.get("complete", True) or attrs.get("checkpoint"):
+            return False
+        with warnings.catch_warnings():  # a folder without zarr.json: not an array
+            warnings.simplefilter("ignore", UserWarning)
+            present = set(zarr.open_group(self.path, mode="r").array_keys())
+        return not present & {*SAMPLES, "time"}
 
     def update_attrs(self, **attrs: Any) -> None:
         """Set root attributes."""

@@ -84,7 +84,8 @@ def test_a_run_interrupted_while_creating_its_store_is_rerun_by_the_same_command
     """Ctrl-C while the first samples are written left a store of only zarr.json, which
     the same command then refused as 'not a nanoblock run (no scenario attribute)'; the
     provenance is now written first, so the rerun writes it afresh, to the trajectory of
-    an uninterrupted run."""
+    an uninterrupted run; meanwhile info, plot and fit say the run was interrupted before
+    its first samples (they said 'damaged: ... array missing')."""
     import xarray
 
     from nanoblock.store import SAMPLES
@@ -102,6 +103,13 @@ def test_a_run_interrupted_while_creating_its_store_is_rerun_by_the_same_command
         patch.setattr(xarray.Dataset, "to_zarr", interrupted)
         killed = CliRunner().invoke(app, [*args, str(out)])
     assert killed.exit_code != 0 and (out / "zarr.json").exists()
+    # what the interrupted store holds is said as such, not as damage ('array missing')
+    said = CliRunner().invoke(app, ["info", str(out)])
+    assert said.exit_code == 0 and "interrupted before its first samples" in said.output
+    for command in (["plot", str(out)], ["fit", str(out), "--out", str(tmp_path / "fit")]):
+        refused = CliRunner().invoke(app, command)
+        assert refused.exit_code == 2, (command, refused.output)
+        assert f"{out}: unfinished: interrupted before its first samples" in refused.output
     again = CliRunner().invoke(app, [*args, str(out)])
     assert again.exit_code == 0, again.output
     rerun = xr.open_zarr(out, consolidated=False)
