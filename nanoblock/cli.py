@@ -160,6 +160,39 @@ def _intact(store: RunStore, checkpoint: bool = False) -> None:
         _fail(f"{store.path}: damaged: {'; '.join(damage)}")
 
 
+@contextmanager
+def _sweep_interrupt(out: Path) -> Iterator[None]:
+    """Ctrl-C during a sweep: the cluster's shutdown is not logged (it printed scheduler
+    errors, pending asyncio tasks and tracebacks of its threads); one line says how many
+    tasks are done and that the same command resumes the rest, exit 130."""
+    import logging
+    import signal
+
+    def interrupt(signum: int, frame: object) -> None:
+        logging.disable(logging.CRITICAL)  # before the cluster starts shutting down
+        sys.unraisablehook = lambda unraisable: None
+        raise KeyboardInterrupt
+
+    previous = signal.getsignal(signal.SIGINT)
+    if previous is signal.default_int_handler:  # not where Ctrl-C is ignored or handled
+        signal.signal(signal.SIGINT, interrupt)
+    try:
+        yield
+    except KeyboardInterrupt:
+        from nanoblock.sweep import MANIFEST, read_manifest
+
+        if (out / MANIFEST).exists():
+            tasks = read_manifest(out)["tasks"]
+            done = sum(entry["status"] == "done" for entry in tasks)
+            said = f"{done} of {len(tasks)} tasks done ({out / MANIFEST}); the same command "
+            typer.echo(f"interrupted: {said}resumes the rest", err=True)
+        else:
+            typer.echo("interrupted before the first task; nothing was written", err=True)
+        raise typer.Exit(130) from None
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def _claim_store(out: Path, scenario: Scenario) -> None:
     """Refuse an ``--out`` that is not a new path, an empty directory or a run store of
     this scenario and seed (so nothing else can be replaced)."""
@@ -375,7 +408,7 @@ def sweep(
     from nanoblock.sweep import Sweep, SweepError, describe, run_sweep
 
     _output_directory(out)
-    with _bad_input(SweepError):
+    with _bad_input(SweepError), _sweep_interrupt(out):
         spec = Sweep.from_file(scenario, assignments or [], seeds)
         for task in spec.tasks():
             check_feasible(task.scenario, f"{scenario}, task {task.name} {task.params}")

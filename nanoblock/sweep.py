@@ -28,9 +28,12 @@ import copy
 import importlib
 import itertools
 import json
+import logging
 import os
 import re
+import signal
 import tempfile
+import threading
 import time
 import tomllib
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -452,24 +455,42 @@ def warm_workers(client: Client, scenario_json: str | None = None) -> dict[str, 
 
 
 @contextmanager
+def _interrupts_ignored_by_children() -> Iterator[None]:
+    """Start processes that ignore SIGINT (the disposition survives their exec): Ctrl-C
+    reaches the whole process group, and a LocalCluster's workers and nannies each printed
+    a KeyboardInterrupt traceback while the client was shutting them down. The parent
+    ignores it meanwhile too (the cluster's start, about 2 s); off the main thread, where
+    signals cannot be set, nothing changes."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+@contextmanager
 def dask_client(
     scheduler: str | None = None, workers: int | None = None, connect_timeout: float = 10.0
 ) -> Iterator[Client]:
     """A client of the cluster at ``scheduler``, or of a new LocalCluster of ``workers``
     single-threaded processes (default: one per CPU) with :data:`WORKER_ENV` and
-    :data:`LOCAL_CONFIG`."""
+    :data:`LOCAL_CONFIG`, whose workers ignore SIGINT and log errors only."""
     with ExitStack() as stack:
         if scheduler is None:
             stack.enter_context(dask.config.set(LOCAL_CONFIG))
-            cluster = stack.enter_context(
-                LocalCluster(
+            with _interrupts_ignored_by_children():
+                cluster = LocalCluster(
                     n_workers=workers or os.cpu_count() or 1,
                     threads_per_worker=1,
                     processes=True,
                     env=WORKER_ENV,
                     dashboard_address=None,
+                    silence_logs=logging.ERROR,
                 )
-            )
+            stack.enter_context(cluster)
             client = stack.enter_context(Client(cluster))
         else:
             try:
@@ -564,20 +585,19 @@ def run_sweep(
             ): task
             for task in pending
         }
-        bar = tqdm(total=len(pending), unit="task", disable=not progress)
-        for future in as_completed(futures):
-            task = futures[future]
-            entry = entries[task.name]
-            try:
-                entry.update(status="done", wall_seconds=future.result())
-            except Exception as error:  # any failure of one task is recorded, not raised
-                # a run that completed but whose worker died before returning is done
-                failed = not is_finished(directory / task.store)
-                entry["status"] = "failed" if failed else "done"
-                entry["error"] = f"{type(error).__name__}: {error}" if failed else None
-            _write_manifest(directory, manifest)
-            bar.update()
-        bar.close()
+        with tqdm(total=len(pending), unit="task", disable=not progress) as bar:
+            for future in as_completed(futures):
+                task = futures[future]
+                entry = entries[task.name]
+                try:
+                    entry.update(status="done", wall_seconds=future.result())
+                except Exception as error:  # any failure of one task is recorded, not raised
+                    # a run that completed but whose worker died before returning is done
+                    failed = not is_finished(directory / task.store)
+                    entry["status"] = "failed" if failed else "done"
+                    entry["error"] = f"{type(error).__name__}: {error}" if failed else None
+                _write_manifest(directory, manifest)
+                bar.update()
         finished = time.perf_counter()
     timings["cluster_start"] = connected - started
     timings["warm_up"] = warm - connected

@@ -29,6 +29,7 @@ from nanoblock.sweep import (
     key_attrs,
     open_sweep,
     parse_assignment,
+    read_manifest,
     run_sweep,
     run_task,
     warm_workers,
@@ -184,6 +185,40 @@ def test_killed_worker_loses_only_its_task_and_rerun_completes_it(
     assert again.ran == [] and [e["task"] for e in again.entries("failed")] == ["0001", "0004"]
     assert "move it away" in again.entries("failed")[0]["error"]
     assert modification_times(out / "tasks") == damaged
+
+
+def test_ctrl_c_stops_a_sweep_in_one_line_and_the_same_command_resumes_it(
+    tiny: Path, tmp_path: Path
+) -> None:
+    """Ctrl-C reaches the whole process group. It printed the scheduler's broadcast
+    errors, each worker's cancelled tasks and KeyboardInterrupt tracebacks of the workers
+    and nannies; now one line says how far the sweep got, exit 130, and the same command
+    finishes it."""
+    import signal
+    import time
+
+    long = tmp_path / "long.toml"  # tasks of several seconds: running when interrupted
+    long.write_text(TINY.replace("displacement = 3e-9", "displacement = 1e-5"))
+    out = tmp_path / "sweep"
+    command = [sys.executable, "-m", "nanoblock", "sweep", str(long), "--out", str(out)]
+    command += ["--set", "joint.temperature=280,300", "--workers", "2", "--quiet"]
+    path = os.pathsep.join([str(Path(__file__).parents[1]), os.environ.get("PYTHONPATH", "")])
+    env = {**os.environ, "PYTHONPATH": path}
+    process = subprocess.Popen(
+        command, stderr=subprocess.PIPE, text=True, start_new_session=True, env=env
+    )
+    deadline = time.monotonic() + 120
+    while not list(out.glob("tasks/*.zarr/zarr.json")) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    os.killpg(process.pid, signal.SIGINT)  # as a terminal's Ctrl-C does
+    _, stderr = process.communicate(timeout=120)
+    assert process.returncode == 130, stderr
+    assert f"interrupted: 0 of 2 tasks done ({out / MANIFEST}); the same command resumes" in stderr
+    for noise in ("Traceback", "KeyboardInterrupt", " - distributed.", "CancelledError"):
+        assert noise not in stderr, stderr
+    again = sweep_cli(str(long), "--out", str(out), "--set", "joint.temperature=280,300")
+    assert again.exit_code == 0 and "2 tasks" in again.output, again.output
+    assert [entry["status"] for entry in read_manifest(out)["tasks"]] == ["done", "done"]
 
 
 ONE_THREAD_AFTER_IMPORT = """
