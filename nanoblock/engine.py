@@ -308,7 +308,17 @@ class Run:
         """Advance to the next sample time, balance the slider, and return the sample."""
         s = self.state
         t = self.times[self.next_sample]
-        advance_to_sample(*self.kernel_arguments(t))
+        try:
+            advance_to_sample(*self.kernel_arguments(t))
+        except ArithmeticError as error:  # a kernel's division by zero or overflow
+            joint, interface = self.scenario.joint, self.scenario.interface
+            raise ScenarioError(
+                f"the engine's arithmetic failed before t = {t:.4g} s ({type(error).__name__}: "
+                f"{error}): a derived scale leaves what it resolves (joint.rho_max = "
+                f"{joint.rho_max:.3g} m from joint.k1 = {joint.k1:.3g} N/m, "
+                f"interface.memory_length = {interface.memory_length:.3g} m, run.step_slip = "
+                f"{self.scenario.step_slip:.3g} m); use values within physical ranges"
+            ) from None
         slider = s.slider[0]
         interval = self.scenario.run.record_every
         position = float(slider["position"])
@@ -424,10 +434,11 @@ def expected_work(scenario: Scenario) -> Callable[[float], float]:
     travel = np.concatenate(
         [[0.0], np.cumsum([step.load_velocity * step.length for step in scenario.loading.steps])]
     )
-    rho_max = scenario.joint.rho_max
 
     def per_block(t: float) -> float:
-        return needs.thermal_rate * t + float(np.interp(t, times, travel)) / rho_max
+        return (
+            needs.thermal_rate * t + float(np.interp(t, times, travel)) * needs.crossings_per_travel
+        )
 
     total = per_block(float(times[-1]))
     if not total > 0.0:

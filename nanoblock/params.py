@@ -189,7 +189,62 @@ class Joint(_Section):
         if self.back_jumps:
             self._check_back_jumps()
         self._check_barrier()
+        if self.threshold_spread > 0.0:
+            self._check_strength_classes()
         return self
+
+    def class_factors(self, spread: float | None = None) -> np.ndarray:
+        """sigma_a of each strength class over ``threshold_stress`` (at ``spread``, default
+        ``threshold_spread``; [1.0] without a spread)."""
+        spread = self.threshold_spread if spread is None else spread
+        if spread == 0.0:
+            return np.ones(1)
+        from nanoblock.theory.meanfield import strength_factors  # scipy: only with a spread
+
+        return strength_factors(spread, self.strength_classes)
+
+    def class_barriers(self) -> np.ndarray:
+        """Reduced zero-stress barrier u of each strength class (physics.md section 1)."""
+        return np.array([
+            reduced_barrier_height(
+                self.threshold_stress * factor, self.block_size, self.shear_modulus,
+                self.temperature,
+            )
+            for factor in self.class_factors()
+        ])  # fmt: skip
+
+    def _class_barriers(self, spread: float) -> tuple[float, float]:
+        """The weakest class's sigma_a factor and the strongest class's u at ``spread``."""
+        factors = self.class_factors(spread)
+        strongest = reduced_barrier_height(
+            self.threshold_stress * factors[-1], self.block_size, self.shear_modulus,
+            self.temperature,
+        )  # fmt: skip
+        return float(factors[0]), strongest
+
+    def _check_strength_classes(self) -> None:
+        """Refuse a spread whose strongest class never depins (u > U_MAX) or whose weakest
+        has no threshold left (sigma_a rounds to 0), naming the largest spread allowed."""
+        weakest, strongest = self._class_barriers(self.threshold_spread)
+        if weakest > 0.0 and strongest <= U_MAX:
+            return
+        low, high = 0.0, self.threshold_spread  # the allowed spreads form [0, low]
+        for _ in range(60):
+            middle = 0.5 * (low + high)
+            factor, u = self._class_barriers(middle)
+            low, high = (middle, high) if factor > 0.0 and u <= U_MAX else (low, middle)
+        why = (
+            f"the strongest has u = U_a / k_B T = {strongest:.4g} > {U_MAX:g} (it never "
+            "depins thermally)"
+            if strongest > U_MAX
+            else "the weakest has sigma_a = 0 (no threshold)"
+        )
+        scale = 10.0 ** (math.floor(math.log10(low)) - 2) if low > 0.0 else 1.0
+        shown = math.floor(low / scale) * scale  # three digits, rounded into the range
+        raise ValueError(
+            f"threshold_spread = {self.threshold_spread!r} over {self.strength_classes} "
+            f"strength classes: {why}; allowed for this joint: threshold_spread <= {shown:.3g}"
+        )
 
     def _check_barrier(self) -> None:
         """Refuse a barrier so high (cold joint, strong threshold) that nothing depins."""
@@ -345,7 +400,11 @@ class Interface(_Section):
                 "memory_length_exponent > 0 needs reference_force (N), the normal load "
                 "at which memory_length is given"
             )
-        scaled = self.memory_length * (self.normal_force / reference) ** n
+        keys = ("memory_length", "normal_force", "reference_force", "memory_length_exponent")
+        with _representable({key: getattr(self, key) for key in keys}):
+            scaled = self.memory_length * (self.normal_force / reference) ** n
+            if not 0.0 < scaled < math.inf:
+                raise ArithmeticError(f"memory_length at normal_force would be {scaled!r} m")
         object.__setattr__(self, "memory_length", float(scaled))
         object.__setattr__(self, "reference_force", float(self.normal_force))
         return self
@@ -501,8 +560,9 @@ class Requirements:
     samples: float
     blocks: int
     memory: float
-    thermal_rate: float  # zero-stress escape rate per block [1/s]
+    thermal_rate: float  # zero-stress escape rate per block, mean over classes [1/s]
     driven_rate: float  # threshold crossings per block at the fastest drive [1/s]
+    crossings_per_travel: float  # threshold crossings per block and m of travel [1/m]
     events_per_sample: float
     events: float
 
@@ -513,13 +573,16 @@ def requirements(scenario: Scenario) -> Requirements:
     samples = scenario.total_time / run.record_every + 1
     blocks = interface.n_contacts * interface.blocks_per_contact
     memory = 8.0 * samples + BYTES_PER_BLOCK * blocks + BYTES_PER_CONTACT * interface.n_contacts
-    thermal = joint.attempt_frequency * math.exp(-min(joint.u, U_MAX))
+    # averaged over the strength classes: a weak class hops and crosses most often
+    barriers = np.minimum(joint.class_barriers(), U_MAX)
+    thermal = float(joint.attempt_frequency * np.mean(np.exp(-barriers)))
+    per_travel = float(np.mean(1.0 / (joint.rho_max * joint.class_factors())))
     velocity = max(step.load_velocity for step in scenario.loading.steps)
-    driven = velocity / joint.rho_max
+    driven = velocity * per_travel
     travel = sum(step.load_velocity * step.length for step in scenario.loading.steps)
     per_sample = blocks * run.record_every * (thermal + driven)
-    events = blocks * (thermal * scenario.total_time + travel / joint.rho_max)
-    return Requirements(samples, blocks, memory, thermal, driven, per_sample, events)
+    events = blocks * (thermal * scenario.total_time + travel * per_travel)
+    return Requirements(samples, blocks, memory, thermal, driven, per_travel, per_sample, events)
 
 
 def check_feasible(scenario: Scenario, source: str = "scenario") -> None:
@@ -540,6 +603,15 @@ def _feasible(scenario: Scenario) -> None:
     ):
         needs = requirements(scenario)
     run, interface = scenario.run, scenario.interface
+    area = interface.normal_force / interface.hardness
+    stiffness = area * joint.threshold_stress / joint.rho_max  # k_int of the pinned interface
+    if not (0.0 < area * joint.threshold_stress < math.inf and 0.0 < stiffness < math.inf):
+        raise ValueError(
+            f"interface.normal_force = {interface.normal_force!r} N over interface.hardness "
+            f"= {interface.hardness!r} Pa is a real contact area of {area:.3g} m^2: its "
+            f"friction force ({area * joint.threshold_stress:.3g} N at sigma_a) and stiffness "
+            f"({stiffness:.3g} N/m) leave double precision; use values within physical ranges"
+        )
     if needs.samples > MAX_SAMPLES:
         raise ValueError(
             f"run.record_every = {run.record_every!r} s over the protocol's "
@@ -557,11 +629,13 @@ def _feasible(scenario: Scenario) -> None:
             f"{available / 1e9:.3g} GB"
         )
     if needs.events_per_sample > MAX_EVENTS_PER_SAMPLE:
+        spread = joint.threshold_spread > 0.0
+        weakest = f", weakest strength class {joint.class_barriers()[0]:.3g}" if spread else ""
         raise ValueError(
             f"the {needs.blocks:.3g} blocks would depin ~{needs.events_per_sample:.3g} "
             f"times per sample (run.record_every = {run.record_every!r} s): at "
             f"{joint.temperature:.4g} K they hop over their barrier without load "
-            f"(u = {joint.u:.4g}: {needs.thermal_rate:.3g} /s per block) and sliding "
+            f"(u = {joint.u:.4g}{weakest}: {needs.thermal_rate:.3g} /s per block) and sliding "
             f"moves each across rho~_max {needs.driven_rate:.3g} times per s; at most "
             f"{MAX_EVENTS_PER_SAMPLE:.0e} per sample are allowed: lower "
             "joint.temperature, run.record_every or the number of blocks"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
@@ -173,3 +174,68 @@ def test_a_non_positive_or_nan_number_is_refused_by_its_key(leaf, value) -> None
         return  # zero is allowed there
     with pytest.raises(ScenarioError, match=leaf[1]):
         from_mapping(_mutated([(leaf, value)]))
+
+
+def test_a_strength_spread_is_refused_where_a_class_never_depins_and_the_limit_is_exact() -> None:
+    """threshold_spread = 2 (the reference only said >= 0) ended in an unexpected ValueError
+    of the rate tables: the strongest of 8 lognormal classes has u = 2068, beyond U_MAX.
+    The refusal names the largest spread allowed, and that spread is one that runs."""
+    import re
+
+    message = refused({"joint": {"threshold_spread": 2.0}})
+    assert "strongest has u = U_a / k_B T = 2068 > 700" in message, message
+    assert "allowed for this joint: threshold_spread <= 1.06" in message  # scenarios/README
+    limit = float(re.search(r"threshold_spread <= ([0-9.e+-]+)", message).group(1))
+    assert 1.0 < limit < 2.0
+    from_mapping(merged(REFERENCE, {"joint": {"threshold_spread": limit * 0.999}}))
+    assert "threshold_spread <=" in refused({"joint": {"threshold_spread": limit * 1.01}})
+
+
+@pytest.mark.parametrize(
+    ("changes", "expected"),
+    [
+        # the contact area W / p overflowed: every stored friction value was NaN, exit 0
+        ({"interface": {"hardness": 1e-300}}, "interface.hardness = 1e-300 Pa"),
+        ({"interface": {"normal_force": 1e300}}, "interface.normal_force = 1e+300 N"),
+    ],
+)
+def test_an_interface_whose_forces_leave_double_precision_cannot_run(changes, expected) -> None:
+    from nanoblock.params import check_feasible
+
+    with pytest.raises(ScenarioError, match="leave double precision") as error:
+        check_feasible(from_mapping(merged(REFERENCE, changes)), "s.toml")
+    assert str(error.value).startswith("s.toml: cannot run: ") and expected in str(error.value)
+
+
+def test_an_overflowing_load_dependent_memory_length_is_refused_by_its_keys() -> None:
+    changes = {"memory_length_exponent": 1e3, "reference_force": 1e-3}  # was OverflowError
+    message = refused({"interface": changes})
+    assert "memory_length_exponent = 1000.0" in message and "double precision" in message
+
+
+def test_a_kernel_division_by_zero_is_a_named_refusal_not_an_unexpected_error() -> None:
+    """joint.k1 = 1e-300 makes rho~_max 7.6e290 m and a kernel divide by zero: a
+    ScenarioError naming the scales (the CLI printed 'unexpected ZeroDivisionError')."""
+    from nanoblock.engine import simulate
+
+    loading = {"stiffness": 2e7, "steps": [{"velocity": 1e-6, "displacement": 1e-8}]}
+    run = from_mapping(merged(REFERENCE, {"joint": {"k1": 1e-300}, "loading": loading}))
+    with pytest.raises(ScenarioError, match=r"ZeroDivisionError.*joint.k1 = 1e-300"):
+        simulate(run)
+
+
+def test_the_work_estimate_counts_the_weakest_strength_class() -> None:
+    """threshold_spread = 1 passed the estimate made with the mean barrier (u = 50) and sat
+    at 0 % of the work: its weakest class (sigma_a x 0.13, u = 0.8) hops 5e11 times a
+    second per block. The estimate averages the classes' rates; a spread of 0.3 (weakest
+    u = 17) still runs."""
+    from nanoblock.params import check_feasible, requirements
+
+    with pytest.raises(ScenarioError, match=r"weakest strength class 0\.799"):
+        check_feasible(from_mapping(merged(REFERENCE, {"joint": {"threshold_spread": 1.0}})))
+    mild = from_mapping(merged(REFERENCE, {"joint": {"threshold_spread": 0.3}}))
+    check_feasible(mild)
+    u = mild.joint.class_barriers()
+    expected = mild.joint.attempt_frequency * np.mean(np.exp(-u))
+    assert requirements(mild).thermal_rate == pytest.approx(expected, rel=1e-12)
+    assert u[0] == pytest.approx(mild.joint.u * mild.joint.class_factors()[0] ** 2, rel=1e-12)
