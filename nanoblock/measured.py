@@ -435,7 +435,12 @@ def load_measurement(
     for name in (*required, *drive[:1]):
         missing |= ~np.isfinite(columns[name])
     if missing.all():
-        raise DataError(f"{path}: every row has a missing (NaN or empty) value in {list(required)}")
+        empty = [name for name in (*required, *drive[:1]) if np.isnan(columns[name]).all()]
+        where = f"column(s) {empty} hold no value" if empty else "no row is complete"
+        raise DataError(
+            f"{path}: every row has a missing (NaN or empty) value in "
+            f"{[*required, *drive[:1]]}: {where}"
+        )
     if missing.any():
         rows = np.flatnonzero(missing)[:5] + 1
         warnings.warn(

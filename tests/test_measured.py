@@ -155,6 +155,14 @@ def test_nan_rows_are_dropped_with_a_counting_warning(tmp_path, csv_text: str) -
     )
 
 
+def test_a_column_without_any_value_is_named(tmp_path) -> None:
+    """An all-NaN load_point_velocity was reported as 'every row has a missing value in
+    ['time', 'mu']', the two complete columns."""
+    table = "time,mu,load_point_velocity\n0,0.6,nan\n1,0.61,nan\n2,0.62,\n"
+    with pytest.raises(DataError, match=r"column\(s\) \['load_point_velocity'\] hold no value"):
+        load_measurement(_write(tmp_path, table))
+
+
 def test_negative_velocity_and_non_positive_steady_velocity_are_refused(tmp_path, csv_text):
     with pytest.raises(
         DataError, match=r"'load_point_velocity' must be >= 0 m/s; data row 5 has -1e-06$"
