@@ -15,6 +15,7 @@ import importlib
 import os
 import sys
 import tempfile
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from importlib.resources import files
@@ -45,11 +46,18 @@ STAMP = "nanoblock-store"
 figure's directory, so that the two may move together)."""
 
 
+def _warning_line(message: Warning | str, category: type[Warning], *args: Any, **kw: Any) -> str:
+    """A warning as the command line shows it: one line, without the source line that
+    raised it (``warnings.formatwarning`` of the commands)."""
+    return f"warning: {message}\n"
+
+
 class _OneMessage(TyperGroup):
     """Turn an unexpected error into one line on stderr and exit code 2 (with
     ``--debug``, the traceback)."""
 
     def invoke(self, ctx: typer.Context) -> Any:
+        warnings.formatwarning = _warning_line
         try:
             result = super().invoke(ctx)
             sys.stdout.flush()  # a closed pipe is found here, not at interpreter exit

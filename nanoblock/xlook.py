@@ -236,18 +236,25 @@ def _recipe_lines(recipe: Path) -> list[_Line]:
     return lines
 
 
-def recipe_binary(recipe: str | Path) -> Path | None:
-    """The binary a recipe reads (its ``read`` line), looked up next to the recipe; None
-    when ``recipe`` is not a recipe naming an existing binary."""
+def recipe_reads(recipe: str | Path) -> str | None:
+    """The file name a recipe's ``read`` line names (without its directory); None when
+    ``recipe`` is no recipe (a file not starting with ``begin``) or names none."""
     recipe = Path(recipe)
     with recipe.open("rb") as handle:
         if handle.read(5) != b"begin":
             return None
     for line in _recipe_lines(recipe):
         if line.words[0] == "read" and len(line.words) > 1:
-            binary = recipe.parent / Path(line.words[1]).name
-            return binary if binary.is_file() else None
+            return Path(line.words[1]).name
     return None
+
+
+def recipe_binary(recipe: str | Path) -> Path | None:
+    """The binary a recipe reads (its ``read`` line), looked up next to the recipe; None
+    when ``recipe`` is not a recipe naming an existing binary."""
+    name = recipe_reads(recipe)
+    binary = Path(recipe).parent / name if name else None
+    return binary if binary is not None and binary.is_file() else None
 
 
 def _column(line: _Line, table: XlookTable, position: int) -> np.ndarray:
@@ -545,6 +552,14 @@ def reduce_xlook(
         raise DataError(
             f"{binary}: an xlook binary holds raw channels {list(table.names.values())}; give "
             "its reduction recipe (the lab's *_r command file) to get mu and displacements"
+        )
+    named = recipe_reads(recipe) if Path(recipe).is_file() else None
+    if named is not None and named != binary.name:
+        warnings.warn(
+            f"{recipe}: reads {named!r} (its 'read' line), not {binary.name!r}: its gains, "
+            "zeros and row numbers are those of that record; check that they apply",
+            RecipeWarning,
+            stacklevel=2,
         )
     skipped = apply_recipe(table, recipe)
     where = f"{binary} reduced by {recipe}"

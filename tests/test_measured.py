@@ -163,6 +163,23 @@ def test_a_column_without_any_value_is_named(tmp_path) -> None:
         load_measurement(_write(tmp_path, table))
 
 
+def test_the_command_line_shows_a_warning_in_one_line(tmp_path, csv_text: str) -> None:
+    """Warnings printed the Python file, line and source line that raised them."""
+    import subprocess
+    import sys
+
+    text = csv_text.replace("load_point_displacement", "load_point_displacement,x", 1)
+    lines = [line + (",1" if line[0].isdigit() else "") for line in text.splitlines()]
+    path = _write(tmp_path, "\n".join(lines) + "\n")
+    done = subprocess.run(
+        [sys.executable, "-m", "nanoblock", "fit", str(path), "--out", str(tmp_path / "f")],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert done.stderr.startswith(f"warning: {path}: ignoring unknown column(s) ['x']")
+    assert ".py:" not in done.stderr and "UserWarning" not in done.stderr, done.stderr
+
+
 def test_negative_velocity_and_non_positive_steady_velocity_are_refused(tmp_path, csv_text):
     with pytest.raises(
         DataError, match=r"'load_point_velocity' must be >= 0 m/s; data row 5 has -1e-06$"

@@ -5,6 +5,7 @@ Penn State originals against the shared CSVs reduced from them."""
 from __future__ import annotations
 
 import struct
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -183,6 +184,19 @@ def test_binary_without_recipe_asks_for_one_and_a_recipe_finds_its_binary(synthe
     np.testing.assert_array_equal(
         load_measurement(recipe)["mu"].values, load_xlook(binary, recipe)["mu"].values
     )
+
+
+def test_a_recipe_that_reads_another_binary_is_said_so(synthetic) -> None:
+    """p655_r applied to p446s7tr005l gave mu0 0.036 with exit 0 and no word: the gains
+    of one record applied to another. The recipe's own binary reads without the warning."""
+    binary, recipe = synthetic
+    renamed = binary.with_name("other_l")
+    renamed.write_bytes(binary.read_bytes())
+    with pytest.warns(RecipeWarning, match=r"reads 'synthetic_l' .*not 'other_l'"):
+        load_xlook(renamed, recipe)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RecipeWarning)
+        load_xlook(binary, recipe)
 
 
 def test_skipped_commands_warn_and_never_leave_a_stale_column(synthetic) -> None:
