@@ -180,6 +180,15 @@ def test_the_command_line_shows_a_warning_in_one_line(tmp_path, csv_text: str) -
     assert ".py:" not in done.stderr and "UserWarning" not in done.stderr, done.stderr
 
 
+def test_a_run_too_short_to_fit_is_named_with_its_file(tmp_path) -> None:
+    """'a run has only 2 samples; at least 10 are needed' named neither file nor run."""
+    rows = [f"{t},0.6,1e-6,{'A' if t < 20 else 'B'}" for t in range(22)]
+    path = _write(tmp_path, "time,mu,load_point_velocity,run\n" + "\n".join(rows) + "\n")
+    result = CliRunner().invoke(app, ["fit", str(path), "--out", str(tmp_path / "f")])
+    assert result.exit_code == 2
+    assert f"{path}: run 'B' has only 2 samples; at least 10 are needed" in result.output
+
+
 def test_negative_velocity_and_non_positive_steady_velocity_are_refused(tmp_path, csv_text):
     with pytest.raises(
         DataError, match=r"'load_point_velocity' must be >= 0 m/s; data row 5 has -1e-06$"

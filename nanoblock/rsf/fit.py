@@ -137,7 +137,13 @@ def prepare_runs(data: xr.Dataset) -> list[RunData]:
     for run in runs(data):
         time = run["time"].values
         if time.size < 10:
-            raise DataError(f"a run has only {time.size} samples; at least 10 are needed")
+            source = data.attrs.get("source_file", "the data")
+            named = "run" in run and time.size
+            which = f"run {run['run'].values[0].item()!r}" if named else "a run"
+            raise DataError(
+                f"{source}: {which} has only {time.size} samples; at least 10 are needed "
+                "to fit it (after any --rows or --window selection)"
+            )
         if "load_point_velocity" in run:
             measured = (
                 run["load_point_displacement"].values if "load_point_displacement" in run else None
