@@ -469,6 +469,14 @@ def load_measurement(
                 f"{path}: column 'load_point_velocity' must be {need} m/s; data row {row + 1} "
                 f"has {float(velocity[row])!r}"
             )
+    if "temperature" in columns:
+        bad = np.flatnonzero(~(columns["temperature"] > 0.0))
+        if bad.size:
+            row = int(bad[0])
+            raise DataError(
+                f"{path}: column 'temperature' must be > 0 K (absolute temperature); data row "
+                f"{row + 1} has {float(columns['temperature'][row])!r}"
+            )
     for key in ("stiffness", "stiffness_per_load", "normal_force", "k_s", "k_f", "k_ext"):
         value = metadata.get(key)
         stiffness = key in ("stiffness", "stiffness_per_load")

@@ -180,6 +180,16 @@ def test_the_command_line_shows_a_warning_in_one_line(tmp_path, csv_text: str) -
     assert ".py:" not in done.stderr and "UserWarning" not in done.stderr, done.stderr
 
 
+@pytest.mark.parametrize("value", ["0", "-20", "nan"])
+def test_a_temperature_at_or_below_absolute_zero_is_refused(tmp_path, value) -> None:
+    """0 K in a steady table's temperature column ended in 'block_size must be a finite
+    positive number ... got inf', naming neither file nor column; fit accepted it."""
+    rows = ["1e-6,0.60,300", "1e-5,0.61,300", f"1e-6,0.62,{value}", "1e-5,0.63,320"]
+    path = _write(tmp_path, "load_point_velocity,mu,temperature\n" + "\n".join(rows) + "\n")
+    with pytest.raises(DataError, match=r"column 'temperature' must be > 0 K .*data row 3"):
+        load_measurement(path)
+
+
 def test_a_run_too_short_to_fit_is_named_with_its_file(tmp_path) -> None:
     """'a run has only 2 samples; at least 10 are needed' named neither file nor run."""
     rows = [f"{t},0.6,1e-6,{'A' if t < 20 else 'B'}" for t in range(22)]
