@@ -204,8 +204,13 @@ def test_ctrl_c_stops_a_sweep_in_one_line_and_the_same_command_resumes_it(
     command += ["--set", "joint.temperature=280,300", "--workers", "2", "--quiet"]
     path = os.pathsep.join([str(Path(__file__).parents[1]), os.environ.get("PYTHONPATH", "")])
     env = {**os.environ, "PYTHONPATH": path}
-    process = subprocess.Popen(
-        command, stderr=subprocess.PIPE, text=True, start_new_session=True, env=env
+    process = subprocess.Popen(  # SIGINT as a terminal leaves it (a pytest-xdist worker
+        command,  # ignores it, and the child would inherit that)
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+        env=env,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     deadline = time.monotonic() + 120
     while not list(out.glob("tasks/*.zarr/zarr.json")) and time.monotonic() < deadline:
