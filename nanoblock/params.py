@@ -64,6 +64,19 @@ practice, or blocks that are not pinned at all."""
 MAX_EVENTS = 1e12
 """Most block depinnings expected over a whole run (about a day of work)."""
 
+MAX_BLOCK_UPDATES = 1e13
+"""Most block updates expected over a whole run: blocks advanced by the internal steps
+(every block at every step; a cheap one costs 2-15 ns, measured 2026-11-29) plus blocks
+drawn afresh by contact renewals (about a day of work). Above MAX_EVENTS times the steps
+of the default rho~_max / 8, so it binds only on a set ``run.step_slip`` or a short
+memory length."""
+
+MAX_DRIVE_RATIO = 1e6
+"""Largest drive stiffness K over the pinned interface's k_int: a stiffer drive moves the
+slider as a rigid one (K = inf) does, to 1e-6 of the interface's elastic slip. Measured
+(2026-11-29, the quick start's protocol): 4-5 s of engine time from K / k_int = 220 to
+2.2e6, as at its own 4.4e-4; at 2.2e8 its hold did not finish in two minutes."""
+
 MAX_SAMPLES = 10**9
 """Most stored samples of a run (their times alone take 8 GB of memory)."""
 
@@ -565,6 +578,10 @@ class Requirements:
     crossings_per_travel: float  # threshold crossings per block and m of travel [1/m]
     events_per_sample: float
     events: float
+    interface_stiffness: float  # k_int of the pinned interface at birth [N/m]
+    steps: float  # internal steps, at least: one per sample plus the drift's (stepper)
+    renewals: float  # contact renewals over the load-point travel
+    block_updates: float  # blocks advanced by the steps plus blocks renewed
 
 
 def requirements(scenario: Scenario) -> Requirements:
@@ -582,7 +599,22 @@ def requirements(scenario: Scenario) -> Requirements:
     travel = sum(step.load_velocity * step.length for step in scenario.loading.steps)
     per_sample = blocks * run.record_every * (thermal + driven)
     events = blocks * (thermal * scenario.total_time + travel * per_travel)
-    return Requirements(samples, blocks, memory, thermal, driven, per_travel, per_sample, events)
+    area = interface.normal_force / interface.hardness
+    k_int = area * joint.threshold_stress / joint.rho_max
+    spring = scenario.loading.stiffness
+    # the stepper's drift runs at least V_L - V_f = V_L k_int / (K + k_int) (V_L if rigid)
+    share = 1.0 if spring == math.inf else k_int / (spring + k_int)
+    steps = samples + travel * share / scenario.step_slip
+    second = interface.second_contacts
+    renewals = travel * (
+        (interface.n_contacts - second) / interface.memory_length
+        + (second / interface.second_memory_length if second else 0.0)
+    )
+    updates = steps * blocks + renewals * interface.blocks_per_contact
+    return Requirements(
+        samples, blocks, memory, thermal, driven, per_travel, per_sample, events, k_int,
+        steps, renewals, updates,
+    )  # fmt: skip
 
 
 def check_feasible(scenario: Scenario, source: str = "scenario") -> None:
@@ -645,6 +677,41 @@ def _feasible(scenario: Scenario) -> None:
             f"the run would take ~{needs.events:.3g} block depinnings (days of work); "
             f"at most {MAX_EVENTS:.0e} are allowed: fewer blocks or a shorter protocol"
         )
+    _feasible_steps(scenario, needs)
+
+
+def _feasible_steps(scenario: Scenario, needs: Requirements) -> None:
+    """ValueError naming the drive stiffness, step or memory length whose internal steps
+    or contact renewals no run would finish."""
+    spring, k_int = scenario.loading.stiffness, needs.interface_stiffness
+    if math.inf > spring > MAX_DRIVE_RATIO * k_int:
+        raise ValueError(
+            f"loading.stiffness = {spring!r} N/m is {spring / k_int:.3g} times the pinned "
+            f"interface's stiffness k_int = {k_int:.3g} N/m (real area "
+            "interface.normal_force / interface.hardness times joint.threshold_stress / "
+            f"rho~_max); above {MAX_DRIVE_RATIO:.0e} times it is a rigid drive to 1e-6 of "
+            "the slip: use loading.stiffness = inf, or at most "
+            f"{MAX_DRIVE_RATIO * k_int:.3g} N/m"
+        )
+    if needs.block_updates <= MAX_BLOCK_UPDATES:
+        return
+    interface, blocks = scenario.interface, needs.blocks
+    if needs.renewals * interface.blocks_per_contact > needs.steps * blocks:
+        shortest = min(interface.memory_length, interface.second_memory_length or math.inf)
+        key = "memory_length" if shortest == interface.memory_length else "second_memory_length"
+        raise ValueError(
+            f"interface.{key} = {shortest!r} m renews contacts ~{needs.renewals:.3g} times "
+            f"over the protocol's load travel, each drawing {interface.blocks_per_contact} "
+            f"blocks afresh; at most {MAX_BLOCK_UPDATES:.0e} block updates are allowed "
+            "(about a day of work): a longer memory length or a shorter protocol"
+        )
+    raise ValueError(
+        f"run.step_slip = {scenario.step_slip!r} m takes ~{needs.steps:.3g} internal steps, "
+        f"each advancing all {blocks:.3g} blocks; at most {MAX_BLOCK_UPDATES:.0e} block "
+        "updates are allowed (about a day of work): a longer run.step_slip (default "
+        f"rho~_max / 8 = {scenario.joint.rho_max / 8:.3g} m), fewer blocks or samples "
+        "(run.record_every), or a shorter protocol"
+    )
 
 
 def physical_memory() -> float:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -215,13 +216,71 @@ def test_an_overflowing_load_dependent_memory_length_is_refused_by_its_keys() ->
 
 def test_a_kernel_division_by_zero_is_a_named_refusal_not_an_unexpected_error() -> None:
     """joint.k1 = 1e-300 makes rho~_max 7.6e290 m and a kernel divide by zero: a
-    ScenarioError naming the scales (the CLI printed 'unexpected ZeroDivisionError')."""
-    from nanoblock.engine import simulate
+    ScenarioError naming the scales (the CLI printed 'unexpected ZeroDivisionError').
+    :func:`simulate` now refuses it before it runs (its interface is 1.5e298 times softer
+    than the drive); stepped without that check, the kernel's error is still named."""
+    from nanoblock.engine import Run, simulate
 
     loading = {"stiffness": 2e7, "steps": [{"velocity": 1e-6, "displacement": 1e-8}]}
     run = from_mapping(merged(REFERENCE, {"joint": {"k1": 1e-300}, "loading": loading}))
-    with pytest.raises(ScenarioError, match=r"ZeroDivisionError.*joint.k1 = 1e-300"):
+    with pytest.raises(ScenarioError, match=r"loading.stiffness = 20000000.0 N/m is 1.51e\+298"):
         simulate(run)
+    stepped = Run(run)
+    with pytest.raises(ScenarioError, match=r"ZeroDivisionError.*joint.k1 = 1e-300"):
+        while not stepped.done:
+            stepped.step_to_next_sample()
+
+
+def test_a_drive_a_million_times_stiffer_than_the_interface_is_refused_as_rigid() -> None:
+    """K / k_int > 1e6 (k_int = W sigma_a / (p rho~_max), 3.6e10 N/m for the reference
+    interface): refused naming the stiffness, k_int and the rigid drive; the hold of such a
+    run sat at 0 % for minutes (K = 1e300 N/m, or W = 1e-300 N, or p = 1e300 Pa). 1e6
+    times is allowed, as is the rigid drive itself."""
+    from nanoblock.params import check_feasible, requirements
+
+    k_int = requirements(from_mapping(REFERENCE)).interface_stiffness
+    assert k_int == pytest.approx(
+        REFERENCE["interface"]["normal_force"]
+        / REFERENCE["interface"]["hardness"]
+        * from_mapping(REFERENCE).joint.threshold_stress
+        / from_mapping(REFERENCE).joint.rho_max,
+        rel=1e-12,
+    )
+    for stiffness in (1e6 * k_int, float("inf")):
+        check_feasible(from_mapping(merged(REFERENCE, {"loading": {"stiffness": stiffness}})))
+    for change in (
+        {"loading": {"stiffness": 1e300}},
+        {"loading": {"stiffness": 1.01e6 * k_int}},
+        {"interface": {"normal_force": 1e-300}, "loading": {"stiffness": 2e7}},
+        {"interface": {"hardness": 1e300}, "loading": {"stiffness": 2e7}},
+    ):
+        with pytest.raises(
+            ScenarioError, match=r"loading.stiffness = .* use loading.stiffness = inf"
+        ):
+            check_feasible(from_mapping(merged(REFERENCE, change)))
+
+
+@pytest.mark.parametrize(
+    ("change", "key"),
+    [
+        ({"run": {"step_slip": 1e-20}}, "run.step_slip = 1e-20 m takes ~"),
+        ({"interface": {"memory_length": 1e-20}}, "interface.memory_length = 1e-20 m renews"),
+        (
+            {"interface": {"second_memory_length": 1e-20, "second_population": 0.5}},
+            "interface.second_memory_length = 1e-20 m renews",
+        ),
+    ],
+)
+def test_steps_or_renewals_no_run_would_finish_are_refused_by_key(change, key) -> None:
+    """Internal steps visit every block and a renewal draws a contact's blocks afresh: in
+    the quick start a step of 1e-15 m or a memory length of 1e-20 m sat at 0 % of the work
+    (the estimate counted depinnings only). Refused naming the key and what it would take."""
+    from nanoblock.params import MAX_BLOCK_UPDATES, check_feasible, requirements
+
+    scenario = from_mapping(merged(REFERENCE, change))
+    assert requirements(scenario).block_updates > MAX_BLOCK_UPDATES
+    with pytest.raises(ScenarioError, match=re.escape(key)):
+        check_feasible(scenario)
 
 
 def test_the_work_estimate_counts_the_weakest_strength_class() -> None:
