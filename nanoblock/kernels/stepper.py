@@ -78,8 +78,20 @@ _MAX_WEIGHT = 0.125
 """Largest weight of one step in the smoothed drift: step sizes must not follow the last
 step's noise."""
 
+_MIN_WEIGHT = 1.0 / 64.0
+"""Smallest weight of one step in the smoothed drift: with few depinnings per step (a hold,
+or a reload, on a stiff spring) the average spans at most ~64 steps, not ~n_blocks / 8
+depinnings, which there last thousands of steps: the drift of the last sliding, kept, was
+a transient to the force limiter, whose short steps held fewer depinnings still. Measured
+(2026-11-29, 1e4 blocks): K/W = 1e12 1/m at 1 nm/s (150 nm, a 100 s hold, 50 nm) 10.4 ->
+1.2 s; the quick start's reload at K/W = 1e15 1/m from ~1e6 steps and 20-70 s per sample
+to 13-400 steps and 30-500 ms."""
+
 _ATHERMAL = 10.0
 """The drift is capped at this many omega_a rho~_max (see :func:`advance_to`)."""
+
+_ROUNDING = 4.0 * np.finfo(np.float64).eps
+"""Relative round-off of a position in units of eps (:func:`settle`)."""
 
 _SETTLE_ROUNDS = 1000
 """Most rounds of elastic jumps and the depinnings they trigger before a sample is stored
@@ -235,7 +247,7 @@ def advance_to(
             # capped: a runaway slip (module docstring) would stop time
             s.drift = min(max(s.drift + s.pending / dt, -athermal), athermal)
             count, spread = _event_spread(events, scratch[2])
-            weight = min(_MAX_WEIGHT, (count + 1.0) / window)
+            weight = min(_MAX_WEIGHT, max((count + 1.0) / window, _MIN_WEIGHT))
             drop = _DROP * s.force / (blocks * (spring + s.stiffness))
             s.smooth_drift += weight * (s.drift - s.smooth_drift)
             variance = (1.0 - weight) ** 2 * s.smooth_noise**2 + weight**2 * max(count, spread) * (
@@ -254,7 +266,11 @@ def settle(
     """Apply the pending elastic jump and iterate (depinnings it triggers) to balance.
 
     Afterwards the blocks sit at ``slider.position`` and ``slider.force`` equals the
-    spring force to a relative 1e-13. Returns the number of rounds needed.
+    spring force to a relative 1e-13, or to the round-off of the spring force, ``_ROUNDING``
+    K |X|, where that is larger (a stiff spring: K eps |X| > 1e-13 F; measured: the quick
+    start's 2 s hold at K/W = 1e12 1/m, 2 um into the run, took 250-580 rounds per sample,
+    each over all blocks, 13.8 s in all, as jumps below the ulp of X left the spring force
+    unchanged). Returns the number of rounds needed.
     """
     params = param_array[0]
     s = slider[0]
@@ -266,6 +282,11 @@ def settle(
         s.pending = _balance_jump(s.position, s.load_point, s.force, s.stiffness, params)
         s.position += s.pending
         if abs(s.pending) * s.stiffness <= _BALANCE * max(abs(s.force), 1e-300):
+            return rounds
+        spring = params.stiffness  # its force K (X_L - X) is known to K eps |X| only
+        if abs(s.pending) * (spring + s.stiffness) <= _ROUNDING * spring * max(
+            abs(s.position), abs(s.load_point)
+        ):
             return rounds
     return max_rounds
 
