@@ -1,7 +1,8 @@
 """Benchmark of the core simulator (issue 2): throughput, scaling and memory.
 
 Run: ``python benchmarks/bench_core.py [--quick] [--table]`` (``--table``: only the
-stiffness table of issue 16, events/s from K/W = 1e2 1/m to a rigid drive, one thread).
+stiffness tables of issue 16, events/s from K/W = 1e2 1/m to a rigid drive in steady
+sliding and the wall time of whole protocols with holds, one thread).
 Prints a Markdown table and updates ``benchmarks/results_core.json``. Each measurement
 runs in a fresh subprocess with the thread count set by NUMBA_NUM_THREADS (compilation is
 cached and excluded by a warm-up).
@@ -118,6 +119,43 @@ for velocity in spec["velocities"]:
 print(json.dumps(rates))
 """
 
+PROTOCOLS = r"""
+import json, sys, time
+sys.path.insert(0, sys.argv[1])
+from nanoblock.engine import Run
+from nanoblock.params import load_scenario
+spec = json.loads(sys.argv[2])
+quickstart = load_scenario(spec["scenario"])
+def build(name, ratio):
+    weight = quickstart.interface.normal_force
+    loading = {"stiffness": ratio * weight}
+    run = {}
+    if name == "creep":  # issue 16's stiff frame: 1 nm/s, a hold, a reload
+        step = type(quickstart.loading.steps[0])
+        loading["steps"] = [step(velocity=1e-9, displacement=150e-9), step(hold=100.0),
+                            step(velocity=1e-9, displacement=50e-9)]
+        run = {"record_every": 1.0}
+    return quickstart.model_copy(update={
+        "loading": quickstart.loading.model_copy(update=loading),
+        "run": quickstart.run.model_copy(update=run)})
+def timed(scenario):
+    run = Run(scenario)
+    started = time.perf_counter()
+    while not run.done:
+        run.step_to_next_sample()
+    return time.perf_counter() - started, int(run.state.events.sum())
+timed(build("quickstart", 1e12))  # warm-up: compile or load the cache
+rates = {}
+for name in ("quickstart", "creep"):
+    for ratio in spec["ratios"]:
+        wall, events = min(timed(build(name, ratio)) for _ in range(2))
+        rates[f"{name} {ratio:g}"] = {"wall": wall, "events_per_s": events / wall}
+print(json.dumps(rates))
+"""
+
+PROTOCOL_RATIOS = [2e6, 1e9, 1e12, 1e14, float("inf")]
+"""K/W [1/m] of the protocol table: the quick start's own spring to 1e14 and rigid."""
+
 STIFFNESSES = [1e2, 1e4, 1e6, 1e9, 1e12, float("inf")]
 """Drive stiffnesses K of the stiffness table [N/m]; the scenarios' W = 1 N, so K/W [1/m]."""
 
@@ -195,10 +233,28 @@ def stiffness_table(scale: float, record) -> dict:
     return tables
 
 
+def protocol_table(record) -> dict:
+    """Wall time of whole protocols, holds and reloads included, one thread: the quick
+    start (1 -> 10 um/s, a 2 s hold, a reload) and a creep protocol (1 nm/s for 150 nm, a
+    100 s hold, 50 nm), each at every K/W of ``PROTOCOL_RATIOS`` (best of two)."""
+    spec = {"scenario": str(ROOT / "scenarios" / "quickstart.toml"), "ratios": PROTOCOL_RATIOS}
+    rates = measure(spec, 1, PROTOCOLS)
+    for name in ("quickstart", "creep"):
+        walls = [rates[f"{name} {ratio:g}"]["wall"] for ratio in PROTOCOL_RATIOS]
+        record(
+            f"{name} protocol, 1e4 blocks, 1 thread: max/min wall over K/W = 2e6..1e14 1/m "
+            "and rigid",
+            max(walls) / min(walls),
+            "x",
+            "(reported; issue 16: cost follows the events)",
+        )
+    return rates
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="shorter runs (smoke test)")
-    parser.add_argument("--table", action="store_true", help="only the stiffness table")
+    parser.add_argument("--table", action="store_true", help="only the stiffness tables")
     args = parser.parse_args()
     scale = 0.2 if args.quick else 1.0
     rows, results = [], {}
@@ -208,6 +264,7 @@ def main() -> None:
         rows.append(f"| {name} | {value:.3g} {unit} | {target} |")
 
     results["stiffness_table_1_thread"] = stiffness_table(scale, record)
+    results["protocol_table_1_thread"] = protocol_table(record)
     if not args.table:
         throughput(scale, record, results)
     host = describe()
@@ -218,9 +275,7 @@ def main() -> None:
     path = ROOT / "benchmarks" / "results_core.json"
     stored = json.loads(path.read_text()) if path.exists() else {}
     if args.table:  # the throughput rows of the last full run stay
-        results = {
-            key: value for key, value in stored.items() if "max/min depinnings" not in key
-        } | results
+        results = {key: value for key, value in stored.items() if "over K/W" not in key} | results
     path.write_text(json.dumps(results, indent=2))
 
 
