@@ -520,7 +520,7 @@ def _xlook(recipe: Path | None, rows: str | None) -> dict[str, Any]:
 
     if recipe is not None and not recipe.is_file():
         raise DataError(f"{recipe}: --recipe names no file; give the xlook reduction recipe")
-    return {"recipe": recipe, "rows": parse_rows(rows) if rows else None}
+    return {"recipe": recipe, "rows": None if rows is None else parse_rows(rows)}
 
 
 def _windowed(measurement: xr.Dataset, window: str | None) -> xr.Dataset:

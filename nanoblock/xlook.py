@@ -9,7 +9,9 @@ a :class:`~nanoblock.measured.DataError` saying what is wrong.
 
 A recipe (the lab's ``*_r`` command file) turns the raw bits into engineering units. Its
 lines run from ``begin`` to ``end``; ``#`` starts a comment, commas separate like blanks;
-columns are 1-based slots, rows 0-based with ``-1`` for the last row, ranges inclusive.
+columns are 1-based slots, rows 0-based with ``-1`` for the last row, ranges inclusive
+(a range that runs backwards, an output column outside 1..32, an empty input column or a
+``r_row`` that removes every row is refused by its line).
 These commands are applied (xlook's ``array.c`` semantics, in float64):
 
 * ``math c op v = out [name unit]`` (constant v) and ``math c op c2 : out`` (column c2),
@@ -188,6 +190,9 @@ _IGNORED = re.compile(r"^(plot\w*|pa|type|head|stats|begin|com_file|read)$")
 _SKIPPED_OUTPUT = {"strain": 3, "cs": 3, "ras": 3, "smooth": 2, "deriv": 3, "qi": 3}
 """Commands not implemented, with the argument position of the column they write."""
 
+_SLOTS = _HEADERS[0]
+"""Columns of an xlook table (one per channel header of a binary)."""
+
 _OPERATIONS = {"+": np.add, "-": np.subtract, "*": np.multiply, "/": np.divide}
 
 
@@ -272,6 +277,25 @@ def _row(line: _Line, table: XlookTable, position: int) -> int:
     return row
 
 
+def _range(line: _Line, table: XlookTable, position: int) -> tuple[int, int]:
+    """The rows ``first last`` at ``position`` (inclusive; -1 is the last row), in order."""
+    first, last = _row(line, table, position), _row(line, table, position + 1)
+    if last < first:
+        raise line.fail(
+            f"rows {line.words[position]} {line.words[position + 1]} run backwards "
+            f"({first} > {last}): give the first row, then the last"
+        )
+    return first, last
+
+
+def _output(line: _Line, position: int) -> int:
+    """The output column at ``position``: a slot 1..``_SLOTS``."""
+    slot = line.integer(position)
+    if not 1 <= slot <= _SLOTS:
+        raise line.fail(f"output column {slot} outside 1..{_SLOTS}")
+    return slot
+
+
 def _math(line: _Line, table: XlookTable, ranged: bool) -> None:
     source = _column(line, table, 1)
     operation = _OPERATIONS.get(line.words[2] if len(line.words) > 2 else "")
@@ -279,9 +303,8 @@ def _math(line: _Line, table: XlookTable, ranged: bool) -> None:
     if operation is None or kind not in ("=", ":"):
         raise line.fail("expected 'math COL OP VALUE = OUT' or 'math COL OP COL : OUT'")
     operand = _column(line, table, 3) if kind == ":" else line.number_at(3)
-    out = line.integer(5)
-    first, last = (_row(line, table, 6), _row(line, table, 7)) if ranged else (0, -1)
-    last = table.nrec - 1 if last == -1 else last
+    out = _output(line, 5)
+    first, last = _range(line, table, 6) if ranged else (0, table.nrec - 1)
     result = table.values.get(out, np.full(table.nrec, np.nan)).copy()
     piece = slice(first, last + 1)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -296,7 +319,7 @@ def _apply(line: _Line, table: XlookTable) -> bool:
         _math(line, table, command == "math_int")
     elif command == "summation":
         table.set(
-            line.integer(2),
+            _output(line, 2),
             np.cumsum(_column(line, table, 1)),
             *line.label(3, table, line.integer(1)),
         )
@@ -305,14 +328,14 @@ def _apply(line: _Line, table: XlookTable) -> bool:
         values -= values[_row(line, table, 2)]
     elif command == "offset_int":
         values = _column(line, table, 1)
-        first, last = _row(line, table, 2), _row(line, table, 3)
+        first, last = _range(line, table, 2)
         jump = values[last] - values[first]
         if line.words[4:5] == ["y"]:
             values[first:last] = values[first]
         values[last:] -= jump
     elif command == "ec":
         disp, tau = _column(line, table, 1), _column(line, table, 2)
-        out, first, last = line.integer(3), _row(line, table, 4), _row(line, table, 5)
+        out, (first, last) = _output(line, 3), _range(line, table, 4)
         stiffness = line.number_at(6)
         if stiffness == 0.0:
             raise line.fail("the elastic constant must not be 0")
@@ -323,10 +346,14 @@ def _apply(line: _Line, table: XlookTable) -> bool:
         scales = [_SI.get(table.units[line.integer(k)].lower(), np.nan) for k in (2, 1)]
         table.elastic[out] = stiffness * scales[0] / scales[1]
     elif command == "r_col":
+        _column(line, table, 1)  # an empty slot is named, as for any other command
         table.remove(line.integer(1))
     elif command == "r_row":
+        first, last = _range(line, table, 1)
+        if last - first + 1 == table.nrec:
+            raise line.fail(f"removes all {table.nrec} rows")
         keep = np.ones(table.nrec, dtype=bool)
-        keep[_row(line, table, 1) : _row(line, table, 2) + 1] = False
+        keep[first : last + 1] = False
         table.values = {slot: values[keep] for slot, values in table.values.items()}
         table.nrec = int(keep.sum())
     else:

@@ -220,6 +220,15 @@ def test_skipped_commands_warn_and_never_leave_a_stale_column(synthetic) -> None
         ("zero 1 7000", r"row 7000 outside 0\.\.589"),
         ("math 1 ^ 2 = 7", "expected 'math COL OP VALUE = OUT'"),
         ("ec 1 2 8 0 -1 0", "elastic constant must not be 0"),
+        # accepted until 2026-11-29: reversed ranges did nothing or shifted the wrong way
+        ("offset_int 1 40 20 n", r"rows 40 20 run backwards \(40 > 20\)"),
+        ("math_int 1 * 2 = 7 -1 3", r"rows -1 3 run backwards \(589 > 3\)"),
+        ("r_row 30 10", r"rows 30 10 run backwards"),
+        ("ec 1 2 8 -1 0 1e3", r"rows -1 0 run backwards"),
+        ("r_row 0 -1", r"removes all 590 rows"),
+        ("math 1 * 2 = 0", r"output column 0 outside 1\.\.32"),
+        ("summation 1 -3", r"output column -3 outside 1\.\.32"),
+        ("r_col 9", r"column 9 is empty"),
     ],
 )
 def test_bad_recipe_lines_are_refused_with_the_line(synthetic, line, message) -> None:
@@ -272,11 +281,18 @@ def test_rows_option_text_and_the_diagnosis_loader(synthetic) -> None:
 
     binary, recipe = synthetic
     assert parse_rows("200:499") == (200, 499)
-    for text in ("200", "a:b", "1:2:3"):
+    for text in ("", "200", "a:b", "1:2:3"):
         with pytest.raises(DataError, match=f"rows '{text}' must be FIRST:LAST"):
             parse_rows(text)
     data = load_for_diagnosis(binary, recipe=recipe, rows=parse_rows("200:499"))
     np.testing.assert_allclose(data["mu"].values, _expected()["mu"][200:500], rtol=1e-12)
+    from typer.testing import CliRunner
+
+    from nanoblock.cli import app
+
+    # --rows "" read the whole file, as if the option had not been given
+    done = CliRunner().invoke(app, ["fit", str(binary), "--recipe", str(recipe), "--rows", ""])
+    assert done.exit_code == 2 and "rows '' must be FIRST:LAST" in done.output, done.output
 
 
 @needs_raw
