@@ -401,7 +401,13 @@ def load_measurement(
     path = Path(path)
     if not path.exists():
         raise DataError(f"{path}: no such file")
-    if path.is_file() and recipe is None and (binary := xlook.recipe_binary(path)):
+    if path.is_file() and recipe is None and (named := xlook.recipe_reads(path)):
+        binary = xlook.recipe_binary(path)
+        if binary is None:
+            raise DataError(
+                f"{path}: an xlook recipe; the binary it reads ({named!r}) is not next to it: "
+                "give the binary as the data file and this recipe with --recipe"
+            )
         path, recipe = binary, path  # a recipe naming its binary
     if recipe is not None or xlook.is_xlook(path):
         table, metadata = xlook.reduce_xlook(path, recipe, rows, columns)

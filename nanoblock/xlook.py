@@ -367,8 +367,14 @@ def apply_recipe(table: XlookTable, recipe: str | Path) -> list[str]:
     recipe = Path(recipe)
     if not recipe.is_file():
         raise DataError(f"{recipe}: no such recipe file")
+    lines = _recipe_lines(recipe)
+    if not any(line.words[0] == "begin" for line in lines):
+        raise DataError(
+            f"{recipe}: not an xlook recipe (no 'begin' line; a recipe runs from 'begin' to "
+            "'end')"
+        )
     skipped = []
-    for line in _recipe_lines(recipe):
+    for line in lines:
         if _IGNORED.match(line.words[0]) or _apply(line, table):
             continue
         skipped.append(f"line {line.number}: {' '.join(line.words)}")

@@ -184,6 +184,17 @@ def test_binary_without_recipe_asks_for_one_and_a_recipe_finds_its_binary(synthe
     np.testing.assert_array_equal(
         load_measurement(recipe)["mu"].values, load_xlook(binary, recipe)["mu"].values
     )
+    # a recipe away from its binary was read as a CSV ("header has 1 columns ['begin']"),
+    # and a CSV given as the recipe warned of 5659 skipped 'commands', one per data row
+    alone = recipe.parent / "elsewhere" / recipe.name
+    alone.parent.mkdir()
+    alone.write_text(recipe.read_text())
+    with pytest.raises(DataError, match=r"an xlook recipe; the binary it reads \('synthetic_l'\)"):
+        load_measurement(alone)
+    table = recipe.parent / "friction.csv"
+    table.write_text("time,mu\n0,0.6\n1,0.61\n")
+    with pytest.raises(DataError, match=r"friction.csv: not an xlook recipe \(no 'begin' line"):
+        load_xlook(binary, table)
 
 
 def test_a_recipe_that_reads_another_binary_is_said_so(synthetic) -> None:
