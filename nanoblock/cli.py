@@ -127,12 +127,14 @@ def _imports_without_gc() -> Iterator[None]:
 
 
 @contextmanager
-def _bad_input(*errors: type[Exception]) -> Iterator[None]:
-    """Report a refused scenario or store (or one of ``errors``) and exit with code 2."""
+def _bad_input(*errors: type[Exception], data: Path | None = None) -> Iterator[None]:
+    """Report a refused scenario or store (or one of ``errors``) and exit with code 2; a
+    message that does not name the ``data`` file it is about starts with it."""
     try:
         yield
     except (ScenarioError, StoreError, *errors) as error:
-        _fail(error)
+        named = data is None or str(data) in str(error) or data.name in str(error)
+        _fail(error if named else f"{data}: {error}")
 
 
 def _open_store(path: Path) -> RunStore:
@@ -576,7 +578,7 @@ def fit(
     _output_directory(out, writes=FIT_FILES)
     if mcmc:
         _require_module("emcee", "--mcmc", "pip install 'nanoblock[mcmc]'")
-    with _bad_input(DataError, ValueError, RuntimeError):
+    with _bad_input(DataError, ValueError, RuntimeError, data=data):
         measurement = _windowed(load_measurement(data, **_xlook(recipe, rows)), window)
         result = fit_rsf(
             measurement,
@@ -649,8 +651,9 @@ def diagnose(
     from nanoblock.measured import DataError
 
     _output_directory(out, writes=DIAGNOSIS_FILES)
-    with _bad_input(DiagnosisError, DataError, ValueError, RuntimeError):
+    with _bad_input(ValueError):
         check_closure(closure)
+    with _bad_input(DiagnosisError, DataError, ValueError, RuntimeError, data=data):
         measurement = _windowed(load_for_diagnosis(data, **_xlook(recipe, rows)), window)
         result = diagnose(
             measurement, progress=progress, workers=workers, simulate=simulate, closure=closure

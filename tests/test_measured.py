@@ -388,3 +388,15 @@ def test_any_csv_table_is_read_with_finite_values_or_refused_by_name(
     for name in ("time", "mu", "load_point_velocity"):
         if name in data:
             assert np.all(np.isfinite(data[name].values)), name
+
+
+@pytest.mark.parametrize("command", ["fit", "diagnose"])
+@pytest.mark.parametrize("rows", [["1e-6,0.6"], ["1e-6,0.6", "1e-5,0.61"]])
+def test_a_table_too_small_to_fit_is_refused_naming_its_file(tmp_path, command, rows) -> None:
+    """A steady table of one or two rows was refused ('2 samples cannot constrain 2 free
+    parameters') without saying which file; the commands now start such a message with it."""
+    path = _write(tmp_path, "load_point_velocity,mu\n" + "\n".join(rows) + "\n", "small.csv")
+    done = CliRunner().invoke(app, [command, str(path), "--out", str(tmp_path / "out")])
+    assert done.exit_code == 2, done.output
+    assert done.output.startswith(f"error: {path}: "), done.output
+    assert done.output.count("\n") == 1 and "Traceback" not in done.output
