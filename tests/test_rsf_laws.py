@@ -216,6 +216,17 @@ def test_a_runaway_slider_is_an_error_that_says_so() -> None:
         solve_slider(law("slip"), params, history, times, 0.05 * 0.01 / 1e-5)
 
 
+def test_a_stiffness_too_large_to_integrate_is_named_not_blamed_on_a_mass() -> None:
+    """K/W = 1e300 1/m (``nanoblock fit --stiffness 1e300``): LSODA gives up, and the
+    message told the user to set a slider mass to 0, on a quasi-static slider."""
+    params = {"mu0": 0.6, "a": 0.005, "b": 0.004, "dc": 1e-5, "v0": 1e-6}
+    history = LoadPointHistory.from_segments([(1e-6, 50.0), (1e-5, 200.0)])
+    times = np.linspace(0.0, 250.0, 2001)
+    with pytest.raises(RuntimeError, match=r"machine stiffness K/W = 1e\+300 1/m") as error:
+        solve_slider(law("aging"), params, history, times, 1e300)
+    assert "mass" not in str(error.value)
+
+
 @pytest.mark.parametrize("ulps", [1, 2, 8, 64])
 def test_a_step_located_a_few_ulp_before_a_sample_starts_at_the_sample(ulps: int) -> None:
     """A step located from rounded displacements can land ulps before the sample it

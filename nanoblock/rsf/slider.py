@@ -317,10 +317,16 @@ def solve_slider(
             except OverflowError as error:
                 message = f"overflow ({error})"
             if message != "Integration successful.":
+                hint = (
+                    "a slider mass too small to resolve is better treated as mass = 0 "
+                    "(quasi-static)"
+                    if mass > 0.0
+                    else f"the machine stiffness K/W = {stiffness:.3g} 1/m may be beyond what "
+                    "the data resolve (stiffness inf: velocity control)"
+                )
                 raise RuntimeError(
                     f"spring-slider integration failed in the segment starting at t = {t_now} s "
-                    f"(V_L = {drive} m/s): {message}; a slider mass too small to resolve is "
-                    "better treated as mass = 0 (quasi-static)"
+                    f"(V_L = {drive} m/s): {message}; {hint}"
                 )
         else:
             solution = y[None, :]
