@@ -6,6 +6,7 @@ from __future__ import annotations
 import functools
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -198,7 +199,7 @@ def test_ctrl_c_stops_a_sweep_in_one_line_and_the_same_command_resumes_it(
     import time
 
     long = tmp_path / "long.toml"  # tasks of several seconds: running when interrupted
-    long.write_text(TINY.replace("displacement = 3e-9", "displacement = 1e-5"))
+    long.write_text(TINY.replace("displacement = 3e-9", "displacement = 2e-5"))
     out = tmp_path / "sweep"
     command = [sys.executable, "-m", "nanoblock", "sweep", str(long), "--out", str(out)]
     command += ["--set", "joint.temperature=280,300", "--workers", "2", "--quiet"]
@@ -218,7 +219,9 @@ def test_ctrl_c_stops_a_sweep_in_one_line_and_the_same_command_resumes_it(
     os.killpg(process.pid, signal.SIGINT)  # as a terminal's Ctrl-C does
     _, stderr = process.communicate(timeout=120)
     assert process.returncode == 130, stderr
-    assert f"interrupted: 0 of 2 tasks done ({out / MANIFEST}); the same command resumes" in stderr
+    # a task may finish while the cluster shuts down (its workers ignore SIGINT)
+    line = rf"interrupted: [01] of 2 tasks done \({re.escape(str(out / MANIFEST))}\); the same"
+    assert re.search(line + " command resumes the rest", stderr), stderr
     for noise in ("Traceback", "KeyboardInterrupt", " - distributed.", "CancelledError"):
         assert noise not in stderr, stderr
     again = sweep_cli(str(long), "--out", str(out), "--set", "joint.temperature=280,300")
