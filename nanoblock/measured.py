@@ -402,8 +402,8 @@ def load_measurement(
     if not path.exists():
         raise DataError(f"{path}: no such file")
     if path.is_file() and recipe is None and (named := xlook.recipe_reads(path)):
-        binary = xlook.recipe_binary(path)
-        if binary is None:
+        binary = path.parent / named  # a recipe's binary lies next to it
+        if not binary.is_file():
             raise DataError(
                 f"{path}: an xlook recipe; the binary it reads ({named!r}) is not next to it: "
                 "give the binary as the data file and this recipe with --recipe"

@@ -216,24 +216,20 @@ class Joint(_Section):
 
         return strength_factors(spread, self.strength_classes)
 
-    def class_barriers(self) -> np.ndarray:
-        """Reduced zero-stress barrier u of each strength class (physics.md section 1)."""
+    def class_barriers(self, spread: float | None = None) -> np.ndarray:
+        """Reduced zero-stress barrier u of each strength class (physics.md section 1), at
+        ``spread`` (default ``threshold_spread``)."""
         return np.array([
             reduced_barrier_height(
                 self.threshold_stress * factor, self.block_size, self.shear_modulus,
                 self.temperature,
             )
-            for factor in self.class_factors()
+            for factor in self.class_factors(spread)
         ])  # fmt: skip
 
     def _class_barriers(self, spread: float) -> tuple[float, float]:
         """The weakest class's sigma_a factor and the strongest class's u at ``spread``."""
-        factors = self.class_factors(spread)
-        strongest = reduced_barrier_height(
-            self.threshold_stress * factors[-1], self.block_size, self.shear_modulus,
-            self.temperature,
-        )  # fmt: skip
-        return float(factors[0]), strongest
+        return float(self.class_factors(spread)[0]), float(self.class_barriers(spread)[-1])
 
     def _check_strength_classes(self) -> None:
         """Refuse a spread whose strongest class never depins (u > U_MAX) or whose weakest
@@ -636,7 +632,7 @@ def _feasible(scenario: Scenario) -> None:
         needs = requirements(scenario)
     run, interface = scenario.run, scenario.interface
     area = interface.normal_force / interface.hardness
-    stiffness = area * joint.threshold_stress / joint.rho_max  # k_int of the pinned interface
+    stiffness = needs.interface_stiffness
     if not (0.0 < area * joint.threshold_stress < math.inf and 0.0 < stiffness < math.inf):
         raise ValueError(
             f"interface.normal_force = {interface.normal_force!r} N over interface.hardness "

@@ -64,7 +64,7 @@ __all__ = [
     "load_xlook",
     "parse_rows",
     "read_xlook",
-    "recipe_binary",
+    "recipe_reads",
     "reduce_xlook",
     "step_velocity",
 ]
@@ -254,14 +254,6 @@ def recipe_reads(recipe: str | Path) -> str | None:
     return None
 
 
-def recipe_binary(recipe: str | Path) -> Path | None:
-    """The binary a recipe reads (its ``read`` line), looked up next to the recipe; None
-    when ``recipe`` is not a recipe naming an existing binary."""
-    name = recipe_reads(recipe)
-    binary = Path(recipe).parent / name if name else None
-    return binary if binary is not None and binary.is_file() else None
-
-
 def _column(line: _Line, table: XlookTable, position: int) -> np.ndarray:
     slot = line.integer(position)
     if slot not in table.values:
@@ -370,8 +362,7 @@ def apply_recipe(table: XlookTable, recipe: str | Path) -> list[str]:
     lines = _recipe_lines(recipe)
     if not any(line.words[0] == "begin" for line in lines):
         raise DataError(
-            f"{recipe}: not an xlook recipe (no 'begin' line; a recipe runs from 'begin' to "
-            "'end')"
+            f"{recipe}: not an xlook recipe (no 'begin' line; a recipe runs from 'begin' to 'end')"
         )
     skipped = []
     for line in lines:

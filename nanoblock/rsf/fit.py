@@ -138,7 +138,7 @@ def prepare_runs(data: xr.Dataset) -> list[RunData]:
         time = run["time"].values
         if time.size < 10:
             source = data.attrs.get("source_file", "the data")
-            named = "run" in run and time.size
+            named = "run" in run and time.size > 0
             which = f"run {run['run'].values[0].item()!r}" if named else "a run"
             raise DataError(
                 f"{source}: {which} has only {time.size} samples; at least 10 are needed "
