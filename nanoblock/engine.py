@@ -58,6 +58,12 @@ fast, 12 and 31 s: the estimate keeps the slower day's)."""
 TRANSIENT_FORCE_STEP = 0.005
 """epsilon: in transients one internal step changes the force by at most epsilon alpha F."""
 
+CALM_STEP_GROWTH = 2.0
+"""With the default ``run.step_slip``, calm sliding (its drift steady within its noise)
+lengthens the internal steps up to this many step_slip (:mod:`nanoblock.kernels.stepper`:
+longer steps leave the slider's velocity unrestored); a set ``run.step_slip`` bounds every
+step."""
+
 FLUSH_SECONDS = 5.0
 """Default wall time [s] between flushes of samples, checkpoint and progress attrs to the
 store (per run: ``simulate(..., flush_seconds=)``, ``nanoblock run --flush-seconds``)."""
@@ -90,6 +96,7 @@ def kernel_parameters(scenario: Scenario) -> np.ndarray:
     record["stiffness"] = scenario.loading.stiffness
     record["step_slip"] = scenario.step_slip
     record["force_step"] = TRANSIENT_FORCE_STEP / (2.0 * joint.u)  # epsilon alpha, alpha = 1/2u
+    record["step_growth"] = CALM_STEP_GROWTH if scenario.run.step_slip is None else 1.0
     return params
 
 
@@ -239,7 +246,7 @@ def initial_state(
     following = following_velocity(
         load_velocity, float(slider["stiffness"]), scenario.loading.stiffness
     )
-    slider["drift"] = slider["smooth_drift"] = load_velocity - following
+    slider["drift"] = slider["smooth_drift"] = slider["slow_drift"] = load_velocity - following
     slider["smooth_noise"] = abs(load_velocity - following)  # not measured yet
     if np.isfinite(scenario.loading.stiffness):
         # start in balance: the drive spring already carries the initial interface force
@@ -607,6 +614,12 @@ def _resume(run: Run, writer: RunStore) -> dict[str, Any] | None:
         raise StoreError(
             f"{writer.path}: checkpoint damaged (arrays {', '.join(missing)} missing): "
             "the run cannot be resumed on its own trajectory"
+        )
+    if arrays["slider"].size != SLIDER.itemsize:  # a store of a version with another layout
+        raise StoreError(
+            f"{writer.path}: checkpoint holds a slider record of {arrays['slider'].size} "
+            f"bytes, this nanoblock's has {SLIDER.itemsize} (written by another version): "
+            "the run cannot be resumed on its own trajectory; run it into a new --out path"
         )
     writer.truncate(int(progress["samples"]), int(progress.get("snapshots", 0)))
     run.restore(arrays, progress)

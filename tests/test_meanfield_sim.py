@@ -11,8 +11,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy import stats
+from scipy.optimize import brentq
 
-from nanoblock.engine import mean_field_joint, simulate
+from nanoblock.engine import Run, mean_field_joint, simulate
 from nanoblock.theory.meanfield import (
     MeanFieldJoint,
     log_slope,
@@ -22,7 +23,13 @@ from nanoblock.theory.meanfield import (
 )
 from tests.conftest import RHO_MAX, scenario
 from tests.naive_meanfield import simulate_mean_field
-from tests.tolerances import FORCE_BALANCE_RTOL, SIGNIFICANCE, STEADY_STRESS_RTOL, Z_MAX
+from tests.tolerances import (
+    FORCE_BALANCE_RTOL,
+    SIGNIFICANCE,
+    STEADY_STRESS_RTOL,
+    Z_MAX,
+    z_bound,
+)
 
 VELOCITIES = [1e-9, 1e-7, 1e-5, 1e-3, 1e-1, 1.0, 10.0]
 """Seven drive velocities over ten decades, up to 2 V* (saturation), m/s."""
@@ -102,6 +109,66 @@ def test_steady_stress_on_a_stiff_spring_matches_quadrature() -> None:
         assert abs(stress - theory) < Z_MAX * error + 1e-4 * theory, (velocity, error)
         spring = STIFF * (result.load_point_displacement - result.slider_displacement)
         np.testing.assert_allclose(spring, result.friction_force, rtol=FORCE_BALANCE_RTOL)
+
+
+SOFT = 1e4
+"""A soft lab machine, K / W = 1e4 1/m (W = 1 N): K = 2.8e-6 k_int."""
+
+CREEP_SEEDS = 8
+CREEP_RTOL = 5e-3
+"""Bound on the mean ln(V / V_Eq28) of the soft-spring creep test: 7.5e-5 of the stress
+(alpha ~ 0.015)."""
+
+CREEP_RMS = 1e-2
+"""Bound on the root mean square of ln(V / V_Eq28) over the seeds: 1.5e-4 of the stress,
+30 times below the steady-stress tolerance (STEADY_STRESS_RTOL)."""
+
+
+def test_a_soft_spring_slider_creeps_at_the_velocity_of_its_stress() -> None:
+    """On a soft spring (K / W = 1e4 1/m, 2e4 blocks, 1 um/s) the force stays where the
+    initial state put it (a draw: ~4 % off the load point's velocity in ln V), so the slider
+    creeps at the velocity whose 001/Eq. 28 stress it carries: a check of the stepper's
+    velocity feedback, where calm steps lengthen. Over :data:`CREEP_SEEDS` seeds, from 100
+    to 300 rho~_max of slip: the mean ln(V / V_Eq28) within CREEP_RTOL and z_bound()
+    standard errors (level SIGNIFICANCE; power 0.9 against a 1.5 % bias at the default's
+    sd), and its root mean square within CREEP_RMS (numerical). Measured (2026-11-29), mean
+    +- standard error, sd: default -0.18 % +- 0.22 %, sd 0.62 %; fixed steps of rho~_max /
+    8 -0.12 % +- 0.10 %, 0.28 %; / 32 -0.12 % +- 0.05 %, 0.13 %. Steps too long for the
+    slider's velocity to be restored fail the rms: fixed rho~_max / 2 +1.57 % +- 0.58 %
+    (rms 2.2 %), 2 rho~_max -0.6 % +- 4.4 % (sd 12.6 %)."""
+    logs = []
+    for seed in range(13, 13 + CREEP_SEEDS):
+        run = Run(
+            scenario(
+                interface={"n_contacts": 40, "blocks_per_contact": 500},
+                loading={
+                    "stiffness": SOFT,
+                    "steps": [{"velocity": 1e-6, "displacement": 300 * RHO_MAX}],
+                },
+                run={"seed": seed, "record_every": SPACING * RHO_MAX / 1e-6},
+            )
+        )
+        samples = [run.step_to_next_sample() for _ in run.times][len(run.times) // 3 :]
+        first, last = samples[0], samples[-1]
+        velocity = (last["slider_displacement"] - first["slider_displacement"]) / (
+            last["time"] - first["time"]
+        )
+        stress = np.mean([s["friction_force"] / s["real_contact_area"] for s in samples])
+        joint = mean_field_joint(run.scenario)
+        log_theory = brentq(
+            lambda log_v, joint=joint, stress=stress: (
+                float(steady_stress(np.exp(log_v), joint)) - stress
+            ),
+            np.log(1e-6) - 5,
+            np.log(1e-6) + 5,
+        )
+        logs.append(np.log(velocity) - log_theory)
+    logs = np.array(logs)
+    error = logs.std(ddof=1) / np.sqrt(logs.size)
+    rms = np.sqrt(np.mean(logs**2))
+    print(f"ln(V / V_Eq28): {logs.mean():+.3%} +- {error:.3%}, rms {rms:.3%}")
+    assert abs(logs.mean()) < CREEP_RTOL + z_bound() * error, (logs.mean(), error)
+    assert rms < CREEP_RMS, logs
 
 
 def test_power_a_warmer_joint_is_rejected(sweep) -> None:

@@ -21,6 +21,7 @@ from typer.testing import CliRunner
 import nanoblock.engine as engine
 from nanoblock.cli import app
 from nanoblock.engine import simulate
+from nanoblock.kernels.layout import SLIDER
 from nanoblock.params import from_mapping, load_scenario
 from nanoblock.store import SAMPLES, SNAPSHOTS, RunStore
 
@@ -254,3 +255,15 @@ def test_deleting_any_chunk_is_reported_and_never_resumes_elsewhere(tmp_path, mo
     result = CliRunner().invoke(app, ["run", str(scenario), "--out", str(damaged), "-q"])
     assert result.exit_code == 2 and "checkpoint damaged (arrays age missing)" in result.output
     assert "Traceback" not in result.output
+    # a checkpoint from a version whose slider record had another layout
+    shutil.rmtree(damaged)
+    shutil.copytree(killed, damaged)
+    for slot in "ab":
+        group = zarr.open_group(damaged / "checkpoint" / slot, mode="a")
+        old = group.create_array(
+            "slider", shape=(SLIDER.itemsize - 8,), dtype="uint8", overwrite=True
+        )
+        old[...] = 1
+    result = CliRunner().invoke(app, ["run", str(scenario), "--out", str(damaged), "-q"])
+    assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+    assert f"slider record of {SLIDER.itemsize - 8} bytes" in result.output, result.output
