@@ -43,8 +43,8 @@ smoothed drift within ``_NOISE_Z`` of its noise of a drift averaged ``_SLOW`` ti
 (they part while the velocity changes); calm slip lengthens the steps by one step_slip per
 ``_CALM_SPAN`` step_slip of it, up to ``step_growth`` step_slip (2 by default: rho~_max /
 4), and a step that is not calm, a new protocol segment or a runaway slip returns them to
-step_slip. Measured (2026-11-29): the quick start's engine time on one thread 15.3-16.1
--> 11.6-13.0 s; against the event-by-event velocity step the errors at 0.5-2.5 ms after
+step_slip. Measured (2026-11-29): the quick start's engine time on one thread 15.3-16.2
+-> 12.5-13.6 s; against the event-by-event velocity step the errors at 0.5-2.5 ms after
 the step stay those of fixed steps (0.1-0.3e-3). Why not longer: a step longer than a
 block's loading cycle (~rho~_max / 2) ends after the blocks have relaxed the velocity
 error it carried, so its force imbalance holds only the log law's share of it and the
