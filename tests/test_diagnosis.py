@@ -327,16 +327,23 @@ def test_steady_log_area_is_the_mean_log_area_of_exponential_ages() -> None:
         assert abs(draws.mean() - expected) < 5 * draws.std(ddof=1) / math.sqrt(draws.size)
 
 
+CALIBRATED_SEEDS = 8
+"""Seeds of the calibrated two-state interface test: one run's steady step scatters by ~5 %."""
+
+
 def test_calibrated_two_state_interface_slides_at_the_fitted_level_and_step() -> None:
     """The simulation check's interface for a p655-like two-state fit (mu0 0.5, a 0.0094,
     b 0.0066, D_c 1.5 um, b2 0.0012, D_c2 7.5 um; 2.3 -> 23 um/s), simulated (500 contacts,
-    seed 0) with its run-in: the record starts in steady sliding (first 2 D0 within
-    2e-3 of the whole first segment; slow noise ~3e-4), the steady level before the step
-    is mu0 within 0.5 %, and the steady step is (a - b - b2) ln 10 within 12 % (~3 sd of
-    the level noise). Measured: start +3e-4, level -0.1 %, step -3.5 %. With the former
-    mapping (p = sigma_s / mu0, m = B / mu0, threshold at v0, no run-in) the same run
-    started 0.010 low (a stall: the 500 drawn block stresses were 2 % short), slid 14 %
-    high and stepped 53 % too far (A inflated by the area factor 1 + m S of 001/Eq. 5)."""
+    :data:`CALIBRATED_SEEDS` seeds) with its run-in: each record starts in steady sliding
+    (first 2 D0 within 2e-3 of the whole first segment; slow noise ~3e-4) at a steady level
+    before the step of mu0 within 0.5 %, and the mean steady step is (a - b - b2) ln 10
+    within 12 %. Measured (2026-11-29): level -0.1 %, step -6.0 % +- 1.7 % (seed sd 4.8 %;
+    seeds 0-5 at fixed steps of rho~_max / 8: -5.0 % +- 2.0 %): at that offset and sd the
+    mean of 8 seeds leaves 12 % with probability ~3e-4 (a single seed, the test until
+    then, failed with probability ~0.1: seed 0 gave -12.2 %). With the former mapping (p =
+    sigma_s / mu0, m = B / mu0, threshold at v0, no run-in) the same run started 0.010
+    low (a stall: the 500 drawn block stresses were 2 % short), slid 14 % high and stepped
+    53 % too far (A inflated by the area factor 1 + m S of 001/Eq. 5)."""
     from nanoblock.diagnosis.simulation import SIMULATED_D0, calibrated_scenarios
     from nanoblock.engine import simulate
     from tests.diagnosis_synthetic import _dataset, _displacement
@@ -353,20 +360,24 @@ def test_calibrated_two_state_interface_slides_at_the_fitted_level_and_step() ->
     columns["load_point_displacement"] = _displacement(segments, time)
     data = _dataset(columns, "time_series", stiffness_per_load=1340.0)
     scenario = calibrated_scenarios(data, base, "two_state_variable", fit)[0]["extended"]
-    run = simulate(scenario)
-    travel = run["load_point_displacement"].values
-    mu = run["friction_coefficient"].values
     run_in, first, second = (s.velocity * s.duration for s in scenario.loading.steps)
-
-    def level(start: float, end: float) -> float:
-        return float(mu[(travel >= start) & (travel < end)].mean())
-
     step = run_in + first
-    before = level(run_in + first / 2, step)
-    assert abs(level(run_in, run_in + 2 * SIMULATED_D0) - level(run_in, step)) < 2e-3
-    assert before == pytest.approx(fit["mu0"], rel=0.005)
+    steps = []
+    for seed in range(CALIBRATED_SEEDS):
+        run = simulate(scenario.with_seed(seed))
+        travel = run["load_point_displacement"].values
+        mu = run["friction_coefficient"].values
+
+        def level(start: float, end: float, travel=travel, mu=mu) -> float:
+            return float(mu[(travel >= start) & (travel < end)].mean())
+
+        before = level(run_in + first / 2, step)
+        assert abs(level(run_in, run_in + 2 * SIMULATED_D0) - level(run_in, step)) < 2e-3
+        assert before == pytest.approx(fit["mu0"], rel=0.005)
+        steps.append(level(step + second / 2, step + second) - before)
     expected = (fit["a"] - fit["b"] - fit["b2"]) * math.log(10.0)
-    assert level(step + second / 2, step + second) - before == pytest.approx(expected, rel=0.12)
+    print(f"steady step / expected - 1: {np.round(np.array(steps) / expected - 1, 3)}")
+    assert np.mean(steps) == pytest.approx(expected, rel=0.12)
 
 
 def test_simulation_check_runs_the_simulator_with_the_cause_switched_on() -> None:
