@@ -96,7 +96,7 @@ def cell(stiffness, velocity, start, mean_force):
     slider["force"] = relaxed_slider["force"]
     slider["stiffness"] = k_int = relaxed_slider["stiffness"]
     drift = velocity - following_velocity(velocity, k_int, stiffness)
-    slider["drift"] = slider["smooth_drift"] = slider["slow_drift"] = drift
+    slider["drift"] = slider["smooth_drift"] = drift
     slider["smooth_noise"] = abs(drift)
     if np.isfinite(stiffness):
         slider["position"] = -mean_force / stiffness

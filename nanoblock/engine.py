@@ -58,12 +58,6 @@ fast, 12 and 31 s: the estimate keeps the slower day's)."""
 TRANSIENT_FORCE_STEP = 0.005
 """epsilon: in transients one internal step changes the force by at most epsilon alpha F."""
 
-CALM_STEP_GROWTH = 2.0
-"""With the default ``run.step_slip``, calm sliding (its drift steady within its noise)
-lengthens the internal steps up to this many step_slip (:mod:`nanoblock.kernels.stepper`:
-longer steps leave the slider's velocity unrestored); a set ``run.step_slip`` bounds every
-step."""
-
 FLUSH_SECONDS = 5.0
 """Default wall time [s] between flushes of samples, checkpoint and progress attrs to the
 store (per run: ``simulate(..., flush_seconds=)``, ``nanoblock run --flush-seconds``)."""
@@ -96,7 +90,6 @@ def kernel_parameters(scenario: Scenario) -> np.ndarray:
     record["stiffness"] = scenario.loading.stiffness
     record["step_slip"] = scenario.step_slip
     record["force_step"] = TRANSIENT_FORCE_STEP / (2.0 * joint.u)  # epsilon alpha, alpha = 1/2u
-    record["step_growth"] = CALM_STEP_GROWTH if scenario.run.step_slip is None else 1.0
     return params
 
 
@@ -246,7 +239,7 @@ def initial_state(
     following = following_velocity(
         load_velocity, float(slider["stiffness"]), scenario.loading.stiffness
     )
-    slider["drift"] = slider["smooth_drift"] = slider["slow_drift"] = load_velocity - following
+    slider["drift"] = slider["smooth_drift"] = load_velocity - following
     slider["smooth_noise"] = abs(load_velocity - following)  # not measured yet
     if np.isfinite(scenario.loading.stiffness):
         # start in balance: the drive spring already carries the initial interface force

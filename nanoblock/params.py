@@ -489,8 +489,7 @@ class Run(_Section):
         None,
         description="slider slip per internal step driven by depinnings (with a finite "
         "spring; the whole slip with a rigid one) [m]; default rho~_max / 8 with a finite "
-        "spring, to rho~_max / 4 in calm steady sliding, unlimited with a rigid one; "
-        "a set value bounds every step",
+        "spring, unlimited with a rigid one",
     )
     snapshot_every: Count = Field(0, ge=0, description="store block snapshots every N samples")
 
@@ -537,8 +536,7 @@ class Scenario(_Section):
         A finite spring needs short steps of the depinnings' drift (predicted from the
         previous step; the pinned response is exact, :mod:`nanoblock.kernels.stepper`);
         a rigid one (K = inf) prescribes the slider path, so the blocks' exact ramps run
-        uninterrupted to the next sample or segment end (inf). Unset, calm steady sliding
-        lengthens the steps up to ``engine.CALM_STEP_GROWTH`` times this."""
+        uninterrupted to the next sample or segment end (inf)."""
         if self.run.step_slip is not None:
             return self.run.step_slip
         return np.inf if self.loading.stiffness == np.inf else self.joint.rho_max / 8

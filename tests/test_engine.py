@@ -295,8 +295,8 @@ def test_velocity_step_transient_converges_in_step_size() -> None:
 
 @pytest.mark.parametrize("divisor", [16, None], ids=["fine", "default"])
 def test_velocity_step_converges_to_the_event_by_event_reference(divisor: int | None) -> None:
-    """The stepper at steps of rho~_max / 16, and at the default steps (rho~_max / 8, to / 4
-    in calm sliding), against the quasi-static dynamics itself: a 10x
+    """The stepper at steps of rho~_max / 16 and at the default rho~_max / 8 against the
+    quasi-static dynamics itself: a 10x
     velocity step at K / W = 3e6 1/m (:func:`tests.naive_quasistatic.velocity_step`, 1000
     blocks in 200 ageing, renewing contacts) reproduces the friction rise over the 1 ms
     before the step of the event-by-event reference (the slider rebalanced after every
@@ -306,9 +306,9 @@ def test_velocity_step_converges_to_the_event_by_event_reference(divisor: int | 
     / 64; at the default rho~_max / 8 up to 0.4e-3 high (passes); at rho~_max / 4 up to
     1.0e-3 (6 % of the rise, 4-6 SE: fails) in the millisecond after the peak, as did the
     stepper before issue 16 at that step (0.7e-3), whose refinement of the force step
-    alone moved it further off (-1.7e-3 at force_step / 8). The default, whose calm steps
-    lengthen: 0.1-0.3e-3 (2026-11-29); calm steps that grew to 2 rho~_max (16 step_slip)
-    failed, 1.9e-3 high 1.5 ms after the step."""
+    alone moved it further off (-1.7e-3 at force_step / 8). Steps lengthened to 2 rho~_max
+    in steady sliding (tried 2026-11-29, not kept) failed: 1.9e-3 high 1.5 ms after the
+    step."""
     reference = json.loads(REFERENCE_FILE.read_text())
     first = reference["first_time"]
     offsets = np.array([0.5e-3, 1e-3, 1.5e-3, 2.5e-3])

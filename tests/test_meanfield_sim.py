@@ -115,6 +115,8 @@ SOFT = 1e4
 """A soft lab machine, K / W = 1e4 1/m (W = 1 N): K = 2.8e-6 k_int."""
 
 CREEP_SEEDS = 8
+"""Seeds of the soft-spring creep test."""
+
 CREEP_RTOL = 5e-3
 """Bound on the mean ln(V / V_Eq28) of the soft-spring creep test: 7.5e-5 of the stress
 (alpha ~ 0.015)."""
@@ -128,14 +130,14 @@ def test_a_soft_spring_slider_creeps_at_the_velocity_of_its_stress() -> None:
     """On a soft spring (K / W = 1e4 1/m, 2e4 blocks, 1 um/s) the force stays where the
     initial state put it (a draw: ~4 % off the load point's velocity in ln V), so the slider
     creeps at the velocity whose 001/Eq. 28 stress it carries: a check of the stepper's
-    velocity feedback, where calm steps lengthen. Over :data:`CREEP_SEEDS` seeds, from 100
-    to 300 rho~_max of slip: the mean ln(V / V_Eq28) within CREEP_RTOL and z_bound()
-    standard errors (level SIGNIFICANCE; power 0.9 against a 1.5 % bias at the default's
-    sd), and its root mean square within CREEP_RMS (numerical). Measured (2026-11-29), mean
-    +- standard error, sd: default -0.18 % +- 0.22 %, sd 0.62 %; fixed steps of rho~_max /
-    8 -0.12 % +- 0.10 %, 0.28 %; / 32 -0.12 % +- 0.05 %, 0.13 %. Steps too long for the
-    slider's velocity to be restored fail the rms: fixed rho~_max / 2 +1.57 % +- 0.58 %
-    (rms 2.2 %), 2 rho~_max -0.6 % +- 4.4 % (sd 12.6 %)."""
+    predicted velocity feedback. Over :data:`CREEP_SEEDS` seeds, from 100 to 300 rho~_max
+    of slip: the mean ln(V / V_Eq28) within CREEP_RTOL and z_bound() standard errors
+    (level SIGNIFICANCE; power 0.9 against a 0.9 % bias at the measured sd), and its root
+    mean square within CREEP_RMS (numerical). Measured (2026-11-29), mean +- standard
+    error, sd: the default step (rho~_max / 8) -0.12 % +- 0.10 %, 0.28 %; rho~_max / 32
+    -0.12 % +- 0.05 %, 0.13 %. Steps too long for the slider's velocity to be restored
+    fail the rms: rho~_max / 2 +1.57 % +- 0.58 % (rms 2.2 %), 2 rho~_max -0.6 % +- 4.4 %
+    (sd 12.6 %)."""
     logs = []
     for seed in range(13, 13 + CREEP_SEEDS):
         run = Run(

@@ -30,7 +30,6 @@ PARAMS = np.dtype(
         ("stiffness", np.float64),  # drive spring K [N/m] (inf: rigid drive)
         ("step_slip", np.float64),  # drift (rigid: whole) slider slip per internal step [m]
         ("force_step", np.float64),  # max spring force change per step / F (transients)
-        ("step_growth", np.float64),  # most step_slip multiples a calm step slips (1: fixed)
     ]
 )
 """Fields of the parameter record, with units."""
@@ -45,8 +44,6 @@ SLIDER = np.dtype(
         ("smooth_drift", np.float64),  # drift averaged over recent depinnings [m/s]
         ("smooth_noise", np.float64),  # standard deviation of smooth_drift [m/s]
         ("last_dt", np.float64),  # previous internal step [s]
-        ("slow_drift", np.float64),  # drift averaged over _SLOW times longer [m/s]
-        ("reach", np.float64),  # step_slip multiples the next step may slip (1 .. step_growth)
         ("force", np.float64),  # interface force F at the last step [N]
         ("stiffness", np.float64),  # interface stiffness dF/dX at the last step [N/m]
         ("steps", np.int64),  # internal steps taken

@@ -36,25 +36,6 @@ of a 1 -> 10 um/s spike at K/W = 1e8 1/m 12-18 % high (+5 % at rho~_max / 8, -1 
 K = inf is the rigid drive: no drift, no jump, ``step_slip`` bounds the slider's own slip
 (unlimited by default).
 
-Calm sliding. Steady sliding on a soft spring needs the short steps less: its prediction
-errs by noise only. With the default ``step_slip`` (``step_growth`` > 1) a step is calm
-when its drift lies within ``_CALM_Z`` standard deviations of the smoothed drift and the
-smoothed drift within ``_NOISE_Z`` of its noise of a drift averaged ``_SLOW`` times longer
-(they part while the velocity changes); calm slip lengthens the steps by one step_slip per
-``_CALM_SPAN`` step_slip of it, up to ``step_growth`` step_slip (2 by default: rho~_max /
-4), and a step that is not calm, a new protocol segment or a runaway slip returns them to
-step_slip. Measured (2026-11-29): the quick start's engine time on one thread 15.3-16.2
--> 12.5-13.6 s; against the event-by-event velocity step the errors at 0.5-2.5 ms after
-the step stay those of fixed steps (0.1-0.3e-3). Why not longer: a step longer than a
-block's loading cycle (~rho~_max / 2) ends after the blocks have relaxed the velocity
-error it carried, so its force imbalance holds only the log law's share of it and the
-slider's velocity is hardly restored. On a soft spring (K / W = 1e4 1/m, 2e4 blocks, 12
-seeds paired against steps of rho~_max / 32) the creep velocity at the spring's force was
-+0.27 +- 0.15 % off at fixed steps of rho~_max / 4, +1.34 +- 0.48 % at / 2, and scattered
-by 4.5 % between seeds at 2 rho~_max; steps growing to 2 rho~_max held the velocity step's
-slider at V_L through the peak, where it overshoots by 12 %, and put the friction 1.9e-3
-high 1.5 ms after the step.
-
 Runaway slips. When a soft spring's force exceeds what the interface can resist at any
 speed (the saturated friction above V*, 001/Fig. 15: the slip phase of stick-slip), the
 quasi-static slider has no finite velocity: each step's jump raises the predicted drift
@@ -105,19 +86,6 @@ a transient to the force limiter, whose short steps held fewer depinnings still.
 (2026-11-29, 1e4 blocks): K/W = 1e12 1/m at 1 nm/s (150 nm, a 100 s hold, 50 nm) 10.4 ->
 1.2 s; the quick start's reload at K/W = 1e15 1/m from ~1e6 steps and 20-70 s per sample
 to 13-400 steps and 30-500 ms."""
-
-_CALM_Z = 4.0
-"""A step is calm when its drift lies within this many standard deviations (its own
-depinning noise and the smoothed drift's) of the smoothed drift, and the smoothed drift
-within ``_NOISE_Z`` of its noise of the slow drift (see :func:`advance_to`)."""
-
-_SLOW = 8.0
-"""The slow drift averages over this many times as many steps as the smoothed drift: the
-two part in a transient, while the slider's velocity changes."""
-
-_CALM_SPAN = 32.0
-"""Calm slip, in step_slip, that lengthens the steps by one step_slip (up to
-``step_growth`` step_slip)."""
 
 _ATHERMAL = 10.0
 """The drift is capped at this many omega_a rho~_max (see :func:`advance_to`)."""
@@ -260,7 +228,7 @@ def advance_to(
         if spring != np.inf and mismatch > 0.0 and s.force > 0.0:
             dt = min(dt, params.force_step * s.force / (spring * mismatch))
         if drift_rate > 0.0:
-            dt = min(dt, max(s.reach, 1.0) * params.step_slip / drift_rate)
+            dt = min(dt, params.step_slip / drift_rate)
         if s.last_dt > 0.0:
             dt = min(dt, 2.0 * s.last_dt)
         velocity = following + s.drift
@@ -281,18 +249,10 @@ def advance_to(
             count, spread = _event_spread(events, scratch[2])
             weight = min(_MAX_WEIGHT, max((count + 1.0) / window, _MIN_WEIGHT))
             drop = _DROP * s.force / (blocks * (spring + s.stiffness))
-            noise = max(count, spread) * (drop / dt) ** 2  # variance of this step's drift
-            innovation = s.drift - s.smooth_drift
-            steady = abs(s.smooth_drift - s.slow_drift) <= _NOISE_Z * s.smooth_noise
-            calm = innovation**2 <= _CALM_Z**2 * (noise + s.smooth_noise**2) and steady
-            if calm and abs(s.drift) < athermal and s.time < segment_end:
-                calm_slip = drift_rate * dt / (params.step_slip * _CALM_SPAN)
-                s.reach = min(max(s.reach, 1.0) + calm_slip, params.step_growth)
-            else:
-                s.reach = 1.0
-            s.smooth_drift += weight * innovation
-            s.slow_drift += weight / _SLOW * (s.drift - s.slow_drift)
-            variance = (1.0 - weight) ** 2 * s.smooth_noise**2 + weight**2 * noise
+            s.smooth_drift += weight * (s.drift - s.smooth_drift)
+            variance = (1.0 - weight) ** 2 * s.smooth_noise**2 + weight**2 * max(count, spread) * (
+                drop / dt
+            ) ** 2
             s.smooth_noise = np.sqrt(variance)
         s.last_dt = dt
         s.steps += 1
