@@ -284,8 +284,10 @@ def settle(
         if abs(s.pending) * s.stiffness <= _BALANCE * max(abs(s.force), 1e-300):
             return rounds
         spring = params.stiffness  # its force K (X_L - X) is known to K eps |X| only
-        if abs(s.pending) * (spring + s.stiffness) <= _ROUNDING * spring * max(
-            abs(s.position), abs(s.load_point)
+        # (a rigid drive has no spring force: inf * 0 would compare NaN, inf <= inf stop
+        # before the jump reached the blocks)
+        if spring != np.inf and abs(s.pending) * (spring + s.stiffness) <= (
+            _ROUNDING * spring * max(abs(s.position), abs(s.load_point))
         ):
             return rounds
     return max_rounds
