@@ -1,8 +1,9 @@
 """Benchmark of the core simulator (issue 2): throughput, scaling and memory.
 
-Run: ``python benchmarks/bench_core.py [--quick] [--table]`` (``--table``: only the
+Run: ``python benchmarks/bench_core.py [--quick] [--table | --steps]`` (``--table``: only the
 stiffness tables of issue 16, events/s from K/W = 1e2 1/m to a rigid drive in steady
-sliding and the wall time of whole protocols with holds, one thread).
+sliding and the wall time of whole protocols with holds, one thread; ``--steps``: only
+the free-block kernel's cost against the length of a finite spring's steps).
 Prints a Markdown table and updates ``benchmarks/results_core.json``. Each measurement
 runs in a fresh subprocess with the thread count set by NUMBA_NUM_THREADS (compilation is
 cached and excluded by a warm-up).
@@ -153,6 +154,60 @@ for name in ("quickstart", "creep"):
 print(json.dumps(rates))
 """
 
+STEPS = r"""
+import json, sys, time
+sys.path.insert(0, sys.argv[1])
+from numba import njit
+from tests.conftest import scenario, RHO_MAX
+from nanoblock.engine import Run
+from nanoblock.kernels.blocks import advance_free_blocks, split_edge
+spec = json.loads(sys.argv[2])
+velocity = spec["velocity"]
+relax = Run(scenario(
+    joint=spec["joint"],
+    interface={"n_contacts": spec["contacts"], "blocks_per_contact": spec["blocks"]},
+    loading={"stiffness": float("inf"),
+             "steps": [{"velocity": velocity, "displacement": spec["relax_rho"] * RHO_MAX}]},
+    run={"record_every": 5 * RHO_MAX / velocity, "initial_state": "steady", "seed": 1},
+))
+while not relax.done:
+    relax.step_to_next_sample()
+state, table = relax.state, relax.tables[0]
+rho, omega_a = relax.strength[0, 1], relax.params[0]["omega_a"]
+@njit
+def passes(y, h, streams, x_rate, duration, edge, n):
+    # n slider steps of every contact's blocks, as the stepper makes them (no jump)
+    events = 0
+    for _ in range(n):
+        for c in range(y.shape[0]):
+            events += advance_free_blocks(y[c], h[c], 0.0, x_rate, duration, 0.0, omega_a,
+                                          table, streams[c], 0.0, edge)
+    return events
+out = {}
+for step in spec["steps"]:  # step length [rho~_max of slip]
+    duration = step * rho / velocity
+    edge = split_edge(table, omega_a, velocity / rho, duration)
+    n = max(1, int(round(spec["slip_rho"] / step))) if step >= 1e-3 else spec["cold_passes"]
+    walls, counts = [], set()
+    for _ in range(spec["repeats"] + 1):  # the first compiles
+        y, h, streams = state.y.copy(), state.h.copy(), state.streams.copy()
+        started = time.perf_counter()
+        counts.add(passes(y, h, streams, velocity / rho, duration, edge, n))
+        walls.append(time.perf_counter() - started)
+    assert len(counts) == 1, counts
+    events = counts.pop()
+    wall = min(walls[1:])
+    out[f"{step:g}"] = {"ns_per_block_step": 1e9 * wall / (n * y.size),
+                        "ns_per_depinning": 1e9 * wall / events if events else None,
+                        "depinnings_per_block_step": events / (n * y.size)}
+print(json.dumps(out))
+"""
+
+STEP_LENGTHS = [1e-6, 1 / 32, 1 / 16, 1 / 8, 1 / 4, 4.0]
+"""Slip per call of the free-block kernel in :func:`step_costs` [rho~_max]: the cold floor
+(no block near its threshold), the finite spring's steps (default 1/8) and a rigid
+drive's long ramps."""
+
 PROTOCOL_RATIOS = [2e6, 1e9, 1e12, 1e14, float("inf")]
 """K/W [1/m] of the protocol table: the quick start's own spring to 1e14 and rigid."""
 
@@ -251,10 +306,43 @@ def protocol_table(record) -> dict:
     return rates
 
 
+def step_costs(record) -> dict:
+    """What a finite spring's short steps cost in the free-block kernel alone
+    (:func:`nanoblock.kernels.blocks.advance_free_blocks`, one thread): the relaxed
+    mean-field interface of the stiffness table (10,000 blocks, 1 um/s) advanced over
+    200 rho~_max of slip in steps of each of ``STEP_LENGTHS`` (the cold floor: 2,000 passes
+    of 1e-6 rho~_max), best of three from the same state. Returns ns per block and step,
+    ns per depinning and depinnings per block and step, by step length."""
+    spec = {
+        "joint": MEAN_FIELD,
+        "contacts": 100,
+        "blocks": 100,
+        "velocity": 1e-6,
+        "relax_rho": RELAX_RHO,
+        "steps": STEP_LENGTHS,
+        "slip_rho": 200,
+        "cold_passes": 2000,
+        "repeats": 3,
+    }
+    costs = measure(spec, 1, STEPS)
+    default, long = costs[f"{1 / 8:g}"], costs[f"{4.0:g}"]
+    record(
+        "free-block kernel, 1e4 blocks, 1 um/s, 1 thread: ns per depinning, steps of "
+        "rho~_max / 8 over steps of 4 rho~_max",
+        default["ns_per_depinning"] / long["ns_per_depinning"],
+        "x",
+        "(reported: a finite spring's short steps)",
+    )
+    return costs
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="shorter runs (smoke test)")
     parser.add_argument("--table", action="store_true", help="only the stiffness tables")
+    parser.add_argument(
+        "--steps", action="store_true", help="only the kernel's cost against step length"
+    )
     args = parser.parse_args()
     scale = 0.2 if args.quick else 1.0
     rows, results = [], {}
@@ -263,19 +351,23 @@ def main() -> None:
         results[name] = value
         rows.append(f"| {name} | {value:.3g} {unit} | {target} |")
 
-    results["stiffness_table_1_thread"] = stiffness_table(scale, record)
-    results["protocol_table_1_thread"] = protocol_table(record)
-    if not args.table:
+    if not args.steps:
+        results["stiffness_table_1_thread"] = stiffness_table(scale, record)
+        results["protocol_table_1_thread"] = protocol_table(record)
+    results["step_costs_1_thread"] = step_costs(record)
+    results["step_costs_host"] = describe()  # the other rows keep their own run's host
+    if not (args.table or args.steps):
         throughput(scale, record, results)
     host = describe()
     print(f"Machine: {host['machine']}, load averages {host['load_averages']} after the runs\n")
     print("| measurement | value | target |\n|---|---|---|")
     print("\n".join(rows))
-    results |= host
+    if not args.steps:
+        results |= host
     path = ROOT / "benchmarks" / "results_core.json"
     stored = json.loads(path.read_text()) if path.exists() else {}
-    if args.table:  # the throughput rows of the last full run stay
-        results = {key: value for key, value in stored.items() if "over K/W" not in key} | results
+    if args.table or args.steps:  # the other rows of the last full run stay
+        results = stored | results
     path.write_text(json.dumps(results, indent=2))
 
 
