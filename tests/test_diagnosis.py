@@ -19,6 +19,7 @@ from typer.testing import CliRunner
 
 from nanoblock.cli import app
 from nanoblock.diagnosis import CATALOGUE, DiagnosisError, core, diagnose, load_for_diagnosis
+from nanoblock.diagnosis.catalogue import BASE
 from nanoblock.diagnosis.core import closed_base
 from nanoblock.diagnosis.report import _closure_text, _summary
 from nanoblock.diagnosis.resample import resample_by_travel
@@ -26,6 +27,7 @@ from nanoblock.diagnosis.simulation import SEEDS, SWITCHES
 from nanoblock.diagnosis.statistics import blocked_folds, noise_level, runs_test, structure
 from nanoblock.diagnosis.surrogates import Measurement
 from nanoblock.diagnosis.validation import check_diagnosable
+from nanoblock.rsf.laws import law
 from tests.diagnosis_synthetic import NOISE, clamped_case, steady_case, time_series_case
 from tests.hidden_matrix import Case, cases, run_case
 from tests.hidden_synthetic import MAKERS
@@ -80,6 +82,34 @@ def test_catalogue_is_complete_and_documented() -> None:
     for effect in CATALOGUE.values():
         assert effect.cause and effect.signature and effect.simulator
         assert effect.surrogates or effect.detector
+
+
+_FLAGGED = {
+    "trend": "slip_trend",
+    "load_exponent": "dc_load_exponent",
+    "cohesion": "cohesion_ratio",
+    "fit_stiffness": "stiffness_ratio",
+}
+"""Parameters an RsfVariant flag adds to its law (its plausibility name)."""
+
+
+@pytest.mark.parametrize(
+    "effect",
+    [e for e in CATALOGUE.values() if "time_series" in e.surrogates],
+    ids=lambda e: e.id,
+)
+def test_every_parameter_a_time_series_extension_adds_has_a_physical_range(effect) -> None:
+    """A cause is accepted only with plausible parameters (issue 15), so every parameter
+    the time-series surrogate adds to the base law, from its own law or its flags, needs
+    a range [low, high] with low < high. Until 2026-11-29 tau_m, v_theta and the load
+    exponent had none: any value was accepted."""
+    variant = effect.surrogates["time_series"]
+    added = set(law(variant.law).names) - set(law(BASE["time_series"].law).names)
+    added |= {name for flag, name in _FLAGGED.items() if getattr(variant, flag)}
+    if variant.initial_state:
+        added |= {"initial_state_offset", "initial_velocity_offset"}
+    assert added <= set(effect.ranges)
+    assert all(low < high for low, high in effect.ranges.values())
 
 
 def _step_record(n: int = 400):

@@ -126,6 +126,8 @@ CATALOGUE: dict[str, Effect] = {
                 "time_series": RsfVariant("saturation", explore=("tau_m",)),
                 "steady_state": SteadyVariant(area="saturation"),
             },
+            # from a microsecond to a day (001's V_sat = 11 um/s over D0 ~ 1 um: ~0.1 s)
+            ranges={"tau_m": (1e-6, 1e5)},
         ),
         Effect(
             "aging_rate",
@@ -152,6 +154,8 @@ CATALOGUE: dict[str, Effect] = {
                 "time_series": RsfVariant("cutoff", explore=("v_theta",)),
                 "steady_state": SteadyVariant(area="cutoff"),
             },
+            # 000 measured 0.03-1.5 um/s (Table 1); above 1 cm/s no lab slides quasi-statically
+            ranges={"v_theta": (1e-12, 1e-2)},
         ),
         Effect(
             "load_dependent_dc",
@@ -166,6 +170,9 @@ CATALOGUE: dict[str, Effect] = {
             },
             "transients (steps, holds or clamped-sample curves) at two or more normal forces",
             varies="normal_force",
+            # 000/Fig. 3 caption: D_c linear in N (n = 1); no mechanism shrinks the memory
+            # with load (1.5 leaves room for a fit's error above linear)
+            ranges={"dc_load_exponent": (0.0, 1.5)},
         ),
         Effect(
             "strength_heterogeneity",
