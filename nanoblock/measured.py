@@ -37,7 +37,7 @@ from __future__ import annotations
 import difflib
 import math
 import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import numpy as np
@@ -366,15 +366,19 @@ def _normalise(columns: dict[str, np.ndarray], metadata: dict[str, object], path
             columns[name] = columns[name] * scales[unit]
 
 
-def _check_order(time: np.ndarray, run: np.ndarray, first_row: int, path: Path) -> None:
+def _check_order(
+    time: np.ndarray, run: np.ndarray, locate: Callable[[int], str], path: Path
+) -> None:
+    """DataError at the first time that repeats or decreases within a run; ``locate``
+    names a row (0-based) in the user's file."""
     same_run = run[1:] == run[:-1]
     bad = np.flatnonzero(same_run & (np.diff(time) <= 0.0))
     if bad.size:
         row = int(bad[0]) + 1
         word = "repeated" if time[row] == time[row - 1] else "decreasing (unsorted)"
         raise DataError(
-            f"{path}: column 'time' is {word} at data row {row + 1} (file line "
-            f"{first_row + row}): {float(time[row])!r} after {float(time[row - 1])!r}"
+            f"{path}: column 'time' is {word} at {locate(row)}: {float(time[row])!r} after "
+            f"{float(time[row - 1])!r}"
         )
 
 
@@ -411,12 +415,25 @@ def load_measurement(
         path, recipe = binary, path  # a recipe naming its binary
     if recipe is not None or xlook.is_xlook(path):
         table, metadata = xlook.reduce_xlook(path, recipe, rows, columns)
-        first_row = 1
+        first = rows[0] if rows is not None else 0
+
+        def locate(row: int) -> str:
+            return f"xlook row {first + row} (after the recipe)"
+
     elif rows is not None or columns is not None:
         raise DataError(f"{path}: rows and columns select from an xlook binary only")
+    elif path.is_dir() or _is_netcdf(path):
+        table, metadata, _ = _read_dataset(path)
+
+        def locate(row: int) -> str:
+            return f"sample {row}"
+
     else:
-        reader = _read_dataset if path.is_dir() or _is_netcdf(path) else _read_csv
-        table, metadata, first_row = reader(path)
+        table, metadata, first_line = _read_csv(path)
+
+        def locate(row: int) -> str:
+            return f"data row {row + 1} (file line {first_line + row})"
+
     _normalise(table, metadata, path)
     columns = table
     unknown = sorted(set(columns) - set(COLUMNS))
@@ -435,7 +452,7 @@ def load_measurement(
         "clamped_sample": ("time", "s_ext", "s"),
         "steady_state": ("mu", "load_point_velocity"),
     }[kind]
-    _check_magnitudes(columns, first_row, path)
+    _check_magnitudes(columns, locate, path)
     drive = [name for name in ("load_point_velocity", "load_point_displacement") if name in columns]
     missing = np.zeros(len(next(iter(columns.values()))), dtype=bool)
     for name in (*required, *drive[:1]):
@@ -457,12 +474,16 @@ def load_measurement(
         )
         columns = {name: values[~missing] for name, values in columns.items()}
         metadata["dropped_rows"] = int(missing.sum())
+        kept, locate_all = np.flatnonzero(~missing), locate
+
+        def locate(row: int) -> str:  # rows of the kept data, named in the user's file
+            return locate_all(int(kept[row]))
 
     run = columns.get("run", np.zeros(len(columns[required[0]])))
     if "run" not in columns and kind == "clamped_sample" and "normal_force" in columns:
         run = columns["normal_force"]  # one run per normal force
     if "time" in columns:
-        _check_order(columns["time"], run, first_row, path)
+        _check_order(columns["time"], run, locate, path)
     if "load_point_velocity" in columns:
         velocity = columns["load_point_velocity"]
         if kind == "steady_state":
@@ -472,7 +493,7 @@ def load_measurement(
         if bad.size:
             row = int(bad[0])
             raise DataError(
-                f"{path}: column 'load_point_velocity' must be {need} m/s; data row {row + 1} "
+                f"{path}: column 'load_point_velocity' must be {need} m/s; {locate(row)} "
                 f"has {float(velocity[row])!r}"
             )
     if "temperature" in columns:
@@ -480,8 +501,8 @@ def load_measurement(
         if bad.size:
             row = int(bad[0])
             raise DataError(
-                f"{path}: column 'temperature' must be > 0 K (absolute temperature); data row "
-                f"{row + 1} has {float(columns['temperature'][row])!r}"
+                f"{path}: column 'temperature' must be > 0 K (absolute temperature); "
+                f"{locate(row)} has {float(columns['temperature'][row])!r}"
             )
     for key in ("stiffness", "stiffness_per_load", "normal_force", "k_s", "k_f", "k_ext"):
         value = metadata.get(key)
@@ -506,8 +527,10 @@ MAGNITUDE_LIMIT = 1e100
 squares of larger values overflow in the fits."""
 
 
-def _check_magnitudes(columns: dict[str, np.ndarray], first_row: int, path: Path) -> None:
-    """DataError naming the column, row and file line of the first infinite value, |mu|
+def _check_magnitudes(
+    columns: dict[str, np.ndarray], locate: Callable[[int], str], path: Path
+) -> None:
+    """DataError naming the column and row (``locate``) of the first infinite value, |mu|
     above :data:`MU_LIMIT` or value above :data:`MAGNITUDE_LIMIT` (NaN is a missing value,
     handled by the caller; inf is no measurement, and dropping it would hide an overflow
     such as 1e400)."""
@@ -519,8 +542,8 @@ def _check_magnitudes(columns: dict[str, np.ndarray], first_row: int, path: Path
         if bad.size:
             row = int(bad[0])
             raise DataError(
-                f"{path}: column {name!r} has {float(values[row]):.6g} at data row {row + 1} "
-                f"(file line {first_row + row}); allowed: |{name}| <= {limit:g}"
+                f"{path}: column {name!r} has {float(values[row]):.6g} at {locate(row)}; "
+                f"allowed: |{name}| <= {limit:g}"
                 + (" (a friction coefficient)" if name == "mu" else " (SI units)")
             )
 

@@ -112,6 +112,17 @@ def test_unsorted_and_repeated_time_name_the_row(tmp_path, csv_text: str) -> Non
     unsorted = _edit_row(csv_text, 41, 0, "-1")
     with pytest.raises(DataError, match=r"decreasing \(unsorted\) at data row 41 .*: -1.0 after"):
         load_measurement(_write(tmp_path, unsorted))
+    # rows with a missing value are dropped first; the row named is still the file's
+    # (until 2026-11-29 it moved one row earlier per dropped row: "data row 39")
+    lines = _edit_row(_edit_row(unsorted, 10, 1, "nan"), 20, 1, "").splitlines()
+    first = header + 2  # file line (1-based) of data row 1
+    with (
+        pytest.warns(DroppedRowsWarning),
+        pytest.raises(
+            DataError, match=rf"decreasing \(unsorted\) at data row 41 \(file line {first + 40}\)"
+        ),
+    ):
+        load_measurement(_write(tmp_path, "\n".join(lines) + "\n"))
 
 
 @pytest.mark.parametrize(
@@ -201,7 +212,8 @@ def test_a_run_too_short_to_fit_is_named_with_its_file(tmp_path) -> None:
 
 def test_negative_velocity_and_non_positive_steady_velocity_are_refused(tmp_path, csv_text):
     with pytest.raises(
-        DataError, match=r"'load_point_velocity' must be >= 0 m/s; data row 5 has -1e-06$"
+        DataError,
+        match=r"'load_point_velocity' must be >= 0 m/s; data row 5 \(file line \d+\) has -1e-06$",
     ):
         load_measurement(_write(tmp_path, _edit_row(csv_text, 5, 2, "-1e-6")))
     table = "load_point_velocity,mu\n1e-6,0.6\n0,0.61\n1e-4,0.62\n"

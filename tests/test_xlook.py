@@ -250,6 +250,19 @@ def test_bad_recipe_lines_are_refused_with_the_line(synthetic, line, message) ->
     assert str(recipe) in str(error.value)
 
 
+@pytest.mark.parametrize(("rows", "row"), [(None, 250), ((200, 499), 250)])
+def test_a_recipe_that_divides_by_zero_is_refused_at_its_xlook_row(synthetic, rows, row):
+    """mu = shear / normal with the normal stress zeroed from row 250 on (a recipe's own
+    arithmetic, not a typo in a CSV): refused at that row of the reduced table, not at a
+    CSV file line the binary does not have (until 2026-11-29: "data row 51 (file line
+    51)" for the window 200:499)."""
+    binary, recipe = synthetic
+    zeroed = "math_int 3 * 0.0 = 3 250 -1 Nor_stress MPa\nmath 2 / 3 : 6 mu ."
+    recipe.write_text(recipe.read_text().replace("math 2 / 3 : 6 mu .", zeroed))
+    with pytest.raises(DataError, match=rf"'mu' has inf at xlook row {row} \(after the recipe\)"):
+        load_xlook(binary, recipe, rows=rows)
+
+
 def test_rows_outside_the_table_and_unknown_column_names_are_refused(synthetic) -> None:
     binary, recipe = synthetic
     with pytest.raises(DataError, match=r"rows \(10, 700\) must satisfy .* <= 589"):
