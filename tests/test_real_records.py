@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -15,13 +16,18 @@ from scipy.integrate import solve_ivp
 from typer.testing import CliRunner
 
 from nanoblock.cli import app
-from nanoblock.diagnosis import CATALOGUE, diagnose, drops
+from nanoblock.diagnosis import CATALOGUE, core, diagnose, drops
 from nanoblock.diagnosis.core import DEFAULT_CLOSURE
 from nanoblock.diagnosis.drops import find_stick_slip
 from nanoblock.diagnosis.plausibility import implausible
 from nanoblock.diagnosis.report import _summary
 from nanoblock.diagnosis.resample import BINS_PER_RUN, resample_by_travel
-from nanoblock.diagnosis.statistics import effective_size, noise_level, resolution_noise
+from nanoblock.diagnosis.statistics import (
+    effective_size,
+    noise_level,
+    resolution_noise,
+    structure,
+)
 from nanoblock.diagnosis.surrogates import forecast_mask
 from nanoblock.measured import load_measurement
 from nanoblock.rsf.fit import fit_rsf, prepare_runs
@@ -29,6 +35,7 @@ from nanoblock.rsf.slider import LoadPointHistory
 from nanoblock.rsf.windows import step_windows
 from tests.hidden_matrix import Case
 from tests.hidden_synthetic import time_series
+from tests.tolerances import z_bound
 
 SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 needs_lab = pytest.mark.skipif(
@@ -77,14 +84,16 @@ def _two_state_step(noise: float, rng: np.random.Generator) -> xr.Dataset:
 
 
 def test_two_state_aging_law_recovers_both_memory_lengths() -> None:
-    """aging2 fitted to an independent Radau integration recovers b2 and D_c2 (noise 2e-5:
-    Jacobian errors, the fit must be within 4 of them and within 5 % of the truth)."""
+    """aging2 fitted to an independent Radau integration recovers b, D_c, b2 and D_c2
+    within z_bound(4) of their Jacobian errors (noise 2e-5, white: the residuals' lag-1
+    autocorrelation is 0.00-0.06; seeds 3-6 gave |z| <= 1.96). Until 2026-11-29 the bound
+    was the larger of 4 errors and 5 % of the truth, which is 77-275 errors here."""
     data = _two_state_step(2e-5, np.random.default_rng(3))
     result = fit_rsf(data, "aging2")
     for name, truth in (("b", 0.006), ("dc", 5e-6), ("b2", 0.006), ("dc2", 2e-4)):
         value, error = result.params[name], result.stderr[name]
         assert math.isfinite(error) and error > 0.0
-        assert abs(value - truth) < max(4.0 * error, 0.05 * truth), (name, value, error)
+        assert abs(value - truth) < z_bound(4) * error, (name, value, error)
     one = fit_rsf(data, "aging")
     assert one.rms_residual > 3.0 * result.rms_residual
 
@@ -102,6 +111,11 @@ def test_resampling_averages_bins_of_equal_travel_within_segments() -> None:
         binned["mu"].values, 0.5 + 100.0 * binned["load_point_displacement"].values, rtol=1e-12
     )
     assert set(np.unique(binned["load_point_velocity"].values)) == {1e-6, 1e-5}
+    # consecutive bin means lie one bin width apart, within the samples' spacing (0.1 of
+    # a width; the partial bins at the step: 0.55): a bin of double width, or two merged
+    # across the step, would leave a gap of ~1.5 (the identity above holds for any bins)
+    gaps = np.diff(binned["load_point_displacement"].values) / (travel[-1] / BINS_PER_RUN)
+    assert gaps.min() > 0.5 and gaps.max() < 1.1, (gaps.min(), gaps.max())
     coarse = data.isel(sample=slice(None, None, 20))
     assert resample_by_travel(coarse).sizes["sample"] == coarse.sizes["sample"]
 
@@ -143,15 +157,31 @@ def test_a_switch_located_on_a_sample_is_put_on_it() -> None:
     assert fit_rsf(data, "aging").rms_residual < 2.0 * NOISE["time_series"]
 
 
+FLOOR_SCATTER = 1.24
+"""Relative standard deviation of the white-noise floor times sqrt(n), measured: 300 seeds
+of 20,000 samples about a 50-sample running mean and 400 seeds of 1,000 stretches of 30
+about their own means both gave 1.24 (+- 0.05). It exceeds the 1.08 of the MAD of
+independent deviations (efficiency 0.37) because the deviations about a common mean are
+correlated; until 2026-11-29 the tests used 1.08 and doubled it."""
+
+
+AR_FLOOR_SCATTER = 0.62
+"""Standard deviation of the AR(1) floor (phi = 0.7, stretches of 30) times sqrt(n_eff),
+measured over 300 seeds of 30,000 samples (mean 0.9242 against the exact 0.9257); the
+tests used 1.08 until 2026-11-29, 1.7 times looser."""
+
+
 def test_resolution_noise_equals_white_noise_and_sees_coloured_noise() -> None:
-    """On white noise the floor is sigma within 3 Monte Carlo errors (MAD efficiency 0.37:
-    relative error 1.08 / sqrt(n)); on AR(1) noise (phi = 0.9) it exceeds the sample-scale
-    white estimate by more than the 1.5 that marks coloured noise."""
+    """On white noise the floor is sigma within z_bound() Monte Carlo errors (relative
+    error :data:`FLOOR_SCATTER` / sqrt(n); level 1e-3, power 0.9 against a 4 % bias); on
+    AR(1) noise (phi = 0.9)
+    it exceeds the sample-scale white estimate by more than the 1.5 that marks coloured
+    noise."""
     rng = np.random.default_rng(5)
     n = 20_000
     white = rng.standard_normal(n)
     floor = resolution_noise([white])
-    assert abs(floor - 1.0) < 3.0 * 1.08 / math.sqrt(n) * 2.0
+    assert abs(floor - 1.0) < z_bound() * FLOOR_SCATTER / math.sqrt(n)
     ar = np.zeros(n)
     for i in range(1, n):
         ar[i] = 0.9 * ar[i - 1] + rng.standard_normal()
@@ -161,15 +191,17 @@ def test_resolution_noise_equals_white_noise_and_sees_coloured_noise() -> None:
 
 def test_resolution_noise_of_steady_stretches_shorter_than_its_window() -> None:
     """Stretches of 30 samples (under the 50-sample window, as the steady stretches of a
-    short record are), taken about their own means: white noise gives sigma within 3
-    Monte Carlo errors; AR(1) noise (phi = 0.7) is still seen as coloured, its floor the
-    exact AR(1) variance about a 30-sample mean over 1 - 1/30 (0.927 of its sd) within 3
-    Monte Carlo errors (1.08 / sqrt(n_eff), n_eff = n (1 - phi) / (1 + phi)), where the
-    sample-scale estimate gives 0.48 (no stretch used: the floor fell back to it before)."""
+    short record are), taken about their own means: white noise gives sigma within
+    z_bound(2) Monte Carlo errors (:data:`FLOOR_SCATTER`); AR(1) noise (phi = 0.7) is still
+    seen as coloured, its floor the exact AR(1) variance about a 30-sample mean over
+    1 - 1/30 (0.927 of its sd) within z_bound(2) Monte Carlo errors (:data:`AR_FLOOR_SCATTER`
+    / sqrt(n_eff), n_eff = n (1 - phi) / (1 + phi); level 1e-3, power 0.9 against biases of
+    3.4 % and 4 %), where the sample-scale
+    estimate gives 0.48 (no stretch used: the floor fell back to it before)."""
     rng = np.random.default_rng(6)
     n, phi = 30_000, 0.7
     white = np.split(rng.standard_normal(n), n // 30)
-    assert abs(resolution_noise(white) - 1.0) < 3.0 * 1.08 / math.sqrt(n) * 2.0
+    assert abs(resolution_noise(white) - 1.0) < z_bound(2) * FLOOR_SCATTER / math.sqrt(n)
     shocks = rng.standard_normal(n) * math.sqrt(1.0 - phi * phi)
     ar = np.empty(n)
     ar[0] = rng.standard_normal()
@@ -183,7 +215,8 @@ def test_resolution_noise_of_steady_stretches_shorter_than_its_window() -> None:
     )
     expected = math.sqrt(kept / (1.0 - 1.0 / w))
     print(f"floor {floor:.3f} (AR(1): {expected:.3f}), white {noise_level(pieces):.3f}")
-    assert abs(floor - expected) < 3.0 * 1.08 / math.sqrt(n * (1.0 - phi) / (1.0 + phi))
+    n_eff = n * (1.0 - phi) / (1.0 + phi)
+    assert abs(floor - expected) < z_bound(2) * AR_FLOOR_SCATTER / math.sqrt(n_eff)
     assert floor > 1.5 * noise_level(pieces)
 
 
@@ -253,12 +286,24 @@ def test_a_few_stick_slip_cycles_after_a_down_step_are_found(index: int) -> None
     independent generator, tests/renewal_synthetic.py) makes only 4-6 cycles in its
     down-step segment, sampled ~12 times a cycle: too few for the autocorrelation test,
     found by the sawtooth test in every run and in no other segment (8 of 8 cases, 24 of
-    24 runs, when measured on 2026-11-26; the cases without the effect gave none)."""
-    data, _ = time_series("unstable_sliding", Case("time_series", "unstable_sliding", index).rng())
-    found = find_stick_slip(prepare_runs(data))
-    assert sorted(event.run for event in found) == [0, 1, 2]
-    assert all(event.load_point_velocity == pytest.approx(1e-6) for event in found)
-    assert all(4 <= event.drops <= 6 and event.regularity <= 0.25 for event in found)
+    24 runs, when measured on 2026-11-26; the cases without the effect gave none), with
+    the generator's own number of cycles (4-6) and their period in slip."""
+    case = Case("time_series", "unstable_sliding", index)
+    data, clean = time_series("unstable_sliding", case.rng())
+    found = sorted(find_stick_slip(prepare_runs(data)), key=lambda event: event.run)
+    assert [event.run for event in found] == [0, 1, 2]
+    for event, run in zip(found, prepare_runs(clean), strict=True):
+        assert event.load_point_velocity == pytest.approx(1e-6)
+        # the generator's own cycles: falls of the noiseless friction of over a quarter of
+        # its range in the segment, and their median spacing in load-point travel
+        segment = run.history.segment_at(run.time)
+        inside = segment == segment[np.searchsorted(run.time, event.start_time)]
+        mu, travel = run.mu[inside], run.load_point_displacement[inside]
+        falls = np.diff(mu) < -0.25 * np.ptp(mu)
+        starts = np.flatnonzero(falls & ~np.r_[False, falls[:-1]])
+        assert event.drops == starts.size
+        # one sample of the ~12 a cycle
+        assert event.period == pytest.approx(np.median(np.diff(travel[starts])), rel=0.1)
 
 
 @pytest.mark.slow
@@ -303,6 +348,31 @@ def test_the_sawtooth_test_refuses_noise_oscillations_spikes_and_transients(monk
     assert alarms == []
 
 
+def test_the_rule_refuses_an_implausible_or_worse_forecasting_extension() -> None:
+    """The verdict rule (``core._supported``) on hand-made candidates: an extension that
+    lowers the IC by 50, halves the excess variance over the noise floor and forecasts
+    better is supported; the same one is refused with a parameter out of range, with a
+    held-out error equal to the base's, or with an IC gain of exactly STRONG_EVIDENCE."""
+    rng = np.random.default_rng(7)
+    noise = 1.0
+
+    def candidate(name, scale, ic, heldout, reasons=()):
+        residuals = [scale * rng.standard_normal(4000)]
+        return core.Candidate(
+            name, None, residuals, ic, heldout, structure(residuals, noise), list(reasons)
+        )
+
+    base = candidate("base", 2.0, 0.0, 2.0)  # excess 4 - 1 = 3 over the floor
+    good = candidate("x", 1.2, -50.0, 1.5)  # removes (4 - 1.44) / 3 = 85 % of it
+    assert core._supported(good, base, noise)
+    refused = [
+        replace(good, implausible=["tau_m = 1e+09 is outside [1e-06, 1e+05]"]),
+        replace(good, heldout_error=base.heldout_error),
+        replace(good, information_criterion=-core.STRONG_EVIDENCE),
+    ]
+    assert not any(core._supported(c, base, noise) for c in refused)
+
+
 def test_implausible_extensions_are_named() -> None:
     """The laboratory fits the issue quotes (b = 1.07 of velocity_saturation, mu0 = 0.81 of
     state_velocity_cutoff on a record at mu ~ 0.49) are out of range; a lab-like fit is in."""
@@ -341,7 +411,10 @@ def test_laboratory_records_get_catalogue_causes_with_plausible_parameters() -> 
     simulation check on, p4309's sawtooth is called unstable_sliding, and every accepted
     extension has plausible parameters and forecasts the held-out halves better than the
     base model; p4309's first paragraph compares K/W with (b - a)/D_c only when the mean
-    fit is velocity-weakening (it is not: it says the drops are the evidence). Measured:
+    fit is velocity-weakening (it is not: it says the drops are the evidence). Plausible
+    parameters are part of the verdict rule
+    (:func:`test_the_rule_refuses_an_implausible_or_worse_forecasting_extension`); the
+    forecast gain must reach the issue's 1.2 (measured 1.22-1.40). Measured:
     5, the 100 MPa 2.3 -> 23 um/s step `unexplained` (machine
     stiffness and a second state each remove ~40 % of the excess over the noise); the
     75 MPa 2.3 -> 23 um/s step's two_state_variable is confirmed by the simulator
@@ -361,9 +434,8 @@ def test_laboratory_records_get_catalogue_causes_with_plausible_parameters() -> 
         if result.cause in CATALOGUE:
             named += 1
         extended = result.extended
-        if extended is not None:
-            assert extended.implausible == []
-            assert result.base.heldout_error / extended.heldout_error > 1.0
+        if extended is not None:  # the issue's acceptance (the rule itself asks for > 1)
+            assert result.base.heldout_error / extended.heldout_error >= 1.2, name
     assert named >= 5
 
 
@@ -411,12 +483,34 @@ def two_loads(directory: Path = SHARED_DATA) -> xr.Dataset:
 def test_two_loads_of_one_experiment_show_a_friction_level_falling_with_load() -> None:
     """p655 at 75 and 100 MPa as two runs: mu is 0.026 lower at 100 MPa, which the shared
     mu0 of the base model cannot follow; expected before the run: load_dependent_level,
-    a cohesion c / sigma_ref inside [0, 0.3] (measured 0.088, c ~ 7.6 MPa) with a forecast
-    gain above 1.2 (measured 29)."""
-    result = diagnose(two_loads())
+    with a cohesion c / sigma_ref within 10 % of the one the steady halves give alone
+    (:func:`steady_cohesion`, 0.087; the fit's transients may trade a little of the
+    offset with mu0; measured 0.088, c ~ 7.6 MPa) and a forecast gain above 1.2 (measured
+    29). Until 2026-11-29 the ratio was held to [0, 0.3], its plausibility range, which the
+    verdict rule already enforces."""
+    data = two_loads()
+    result = diagnose(data)
     assert result.cause == "load_dependent_level"
-    assert 0.0 < result.extended.fit.params["cohesion_ratio"] < 0.3
+    ratio = result.extended.fit.params["cohesion_ratio"]
+    assert abs(ratio / steady_cohesion(data) - 1.0) < 0.1
     assert result.base.heldout_error / result.extended.heldout_error > 1.2
+
+
+def steady_cohesion(data: xr.Dataset) -> float:
+    """c / sigma_ref from the data alone: the two runs' mean friction over the second half
+    of each velocity's segment, differenced per velocity (0.0874 and 0.0867 at 2.3 and 23
+    um/s: the offset does not depend on the rate) and divided by W_ref (1/W_1 - 1/W_2)."""
+    levels, loads = [], []
+    for run in prepare_runs(data):
+        segment = run.history.segment_at(run.time)
+        halves = []
+        for k in range(run.history.starts.size):
+            time, mu = run.time[segment == k], run.mu[segment == k]
+            halves.append(float(np.mean(mu[time >= 0.5 * (time[0] + time[-1])])))
+        levels.append(np.array(halves))
+        loads.append(run.normal_force)
+    reference = math.sqrt(loads[0] * loads[1])
+    return float(np.mean(levels[0] - levels[1]) / (reference * (1 / loads[0] - 1 / loads[1])))
 
 
 UNSTABLE_UNDER_DECIMATION = {
