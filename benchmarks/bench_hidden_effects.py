@@ -3,13 +3,15 @@ show, ``PER_EFFECT`` cases each, and effect-free cases, diagnosed on 2 processes
 (``tests/hidden_matrix.py``: cases, the expected-answer rule, rates and bounds).
 
 Run: ``python benchmarks/bench_hidden_effects.py [PER_EFFECT [NONE_PER_KIND [KIND ...]]]
-[--closure=CLOSURE] [--resume]`` (8, 8, every kind and the diagnosis's default closure
-``aging`` by default; ``renewal``, ``auto`` or ``best`` for the time-series base's others). Writes
-``benchmarks/results_hidden_effects.json`` (with KINDs: ``results_hidden_effects_<KIND>...
-json``, with another closure ``..._<CLOSURE>.json``) after every case, ``complete`` false
-until the matrix is done (a stopped run still leaves a stratified prefix; ``--resume``
-keeps the cases such a file holds and runs the rest), and prints the markdown confusion
-matrix. A case that raises is recorded with verdict ``error: ...`` (a
+[--closure=CLOSURE] [--effects=E1,E2] [--resume]`` (8, 8, every kind and the diagnosis's
+default closure ``aging`` by default; ``renewal``, ``auto`` or ``best`` for the time-series
+base's others; ``--effects``: only those rows, ``none`` for the effect-free one, each case
+the same as in the full matrix). Writes ``benchmarks/results_hidden_effects.json`` (with
+KINDs: ``results_hidden_effects_<KIND>...json``, with another closure
+``..._<CLOSURE>.json``, with effects ``..._<E1>_<E2>.json``) after every case,
+``complete`` false until the matrix is done (a stopped run still leaves a stratified
+prefix; ``--resume`` keeps the cases such a file holds and runs the rest), and prints the
+markdown confusion matrix. A case that raises is recorded with verdict ``error: ...`` (a
 wrong answer) instead of stopping the matrix. KIND ``engine_time_series`` (not among the
 defaults) runs the records the nanoblock engine makes (``tests/engine_synthetic.py``).
 """
@@ -53,7 +55,14 @@ def main() -> None:
     closures = [arg.removeprefix("--closure=") for arg in options if arg.startswith("--closure=")]
     closure = closures[-1] if closures else DEFAULT_CLOSURE
     matrix = cases(per_effect, none_per_kind, tuple(kinds) or KINDS)
-    suffix = [] if closure == DEFAULT_CLOSURE else [closure]
+    chosen = [arg.removeprefix("--effects=") for arg in options if arg.startswith("--effects=")]
+    effects = chosen[-1].split(",") if chosen else []
+    known = {"none"}.union(*(ALL_EFFECTS[kind] for kind in (kinds or KINDS)))
+    if unknown := sorted(set(effects) - known):
+        sys.exit(f"effect {unknown[0]!r} is not one of {', '.join(sorted(known))}")
+    if effects:  # a row of the matrix (its cases as in the full one: each has its own stream)
+        matrix = [case for case in matrix if case.effect in effects]
+    suffix = ([] if closure == DEFAULT_CLOSURE else [closure]) + effects
     out = ROOT / "benchmarks" / "_".join(["results_hidden_effects", *kinds, *suffix])
     started = time.perf_counter()
     header = {
@@ -66,6 +75,7 @@ def main() -> None:
         "none_per_kind": none_per_kind,
         "visible_chi2": VISIBLE_CHI2,
         "closure": closure,
+        "effects": effects or "all",
         "planned_cases": len(matrix),
         "host": describe(),
     }
@@ -108,13 +118,15 @@ def main() -> None:
 
 def _resumed(path: Path, header: dict, resume: bool) -> tuple[list[dict], dict]:
     """With ``--resume``: the cases an earlier, stopped run of the same matrix (same
-    planned cases, none_per_kind, visible_chi2 and closure) wrote to ``path``, and that run's
-    date, wall seconds and the dates it was resumed at (this one appended); else nothing."""
+    planned cases, none_per_kind, visible_chi2, closure and effects) wrote to ``path``, and
+    that run's date, wall seconds and the dates it was resumed at (this one appended); else
+    nothing."""
     if not resume or not path.exists():
         return [], {}
     stored = json.loads(path.read_text())
-    same = ("planned_cases", "none_per_kind", "visible_chi2", "closure")
-    if any(stored.get(key, "aging" if key == "closure" else None) != header[key] for key in same):
+    same = ("planned_cases", "none_per_kind", "visible_chi2", "closure", "effects")
+    defaults = {"closure": "aging", "effects": "all"}  # files written before these keys
+    if any(stored.get(key, defaults.get(key)) != header[key] for key in same):
         sys.exit(f"{path}: --resume needs the same matrix ({', '.join(same)})")
     resumed = [*stored.get("resumed", []), header["date"]]
     return stored["cases"], {**stored, "resumed": resumed}

@@ -165,7 +165,9 @@ CATALOGUE: dict[str, Effect] = {
             {"dc_load_exponent": "n in D_c ~ W^n"},
             "interface.memory_length_exponent",
             {
-                "time_series": RsfVariant("aging", load_exponent=True),
+                "time_series": RsfVariant(
+                    "aging", load_exponent=True, explore=("dc_load_exponent",)
+                ),
                 "clamped_sample": RsfVariant("silicon", load_exponent=True),
             },
             "transients (steps, holds or clamped-sample curves) at two or more normal forces",

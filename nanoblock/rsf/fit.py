@@ -70,9 +70,11 @@ _START_GRID = {
     "tau_m": (-2.5, 0.0, 2.5),
     "aging_rate": (-2.5, 0.0, 2.5),
     STIFFNESS: (-1.5, 0.0, 1.5),
+    LOAD_EXPONENT: (0.0, 0.5, 1.0),
 }
-"""Shifts of the starting point (scaled space: ln for dc, d0, theta* and K/W; additive for a),
-evaluated once each; the best ``_REFINED_STARTS`` are refined."""
+"""Shifts of the starting point (scaled space: ln for dc, d0, theta* and K/W; additive for a
+and the load exponent n of D_c ~ W^n, whose local optimum from n = 0 can stop at a third of
+the true exponent), evaluated once each; the best ``_REFINED_STARTS`` are refined."""
 _REFINED_STARTS = 2
 MAX_LAG1 = 0.99
 """Largest residual autocorrelation used to inflate standard errors."""
