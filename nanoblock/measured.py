@@ -256,7 +256,7 @@ def _attrs(name: str) -> dict[str, str]:
     return {"units": COLUMNS[name][0], "long_name": COLUMNS[name][1]}
 
 
-def _read_dataset(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object], int]:
+def _read_dataset(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object]]:
     """A netCDF file or zarr store's 1-D variables and attrs (a nanoblock run store as
     :func:`from_simulation` converts it, refused when arrays or chunks are missing)."""
     from nanoblock.store import UNSTARTED, RunStore, scenario_damage
@@ -295,7 +295,7 @@ def _read_dataset(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object],
         key: float(value) if key in _NUMERIC_METADATA else value
         for key, value in dataset.attrs.items()
     }
-    return columns, metadata, 1
+    return columns, metadata
 
 
 def _kind(columns: dict[str, np.ndarray], metadata: dict[str, object], path: Path) -> str:
@@ -423,7 +423,7 @@ def load_measurement(
     elif rows is not None or columns is not None:
         raise DataError(f"{path}: rows and columns select from an xlook binary only")
     elif path.is_dir() or _is_netcdf(path):
-        table, metadata, _ = _read_dataset(path)
+        table, metadata = _read_dataset(path)
 
         def locate(row: int) -> str:
             return f"sample {row}"
