@@ -259,7 +259,7 @@ def test_auto_closure_takes_the_generators_own_population_average(cohort_record)
     assert closed_base(Measurement(resample_by_travel(cohorts)))[0] == "renewal"
     assert closed_base(Measurement(resample_by_travel(aging_law)))[0] == "aging"
     assert diagnose(cohorts, closure="auto").cause == "none"
-    assert diagnose(cohorts, closure="aging").cause != "none"
+    assert diagnose(cohorts, closure="aging").cause not in ("none", "unexplained")
 
 
 def test_the_cli_and_the_api_default_to_the_same_closure() -> None:

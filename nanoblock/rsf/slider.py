@@ -161,13 +161,12 @@ class SliderSolution:
 def _quasi_static_rhs(law: Law, p: tuple[float, ...], stiffness: float):
     """d/dt of (w, s, slip) for the quasi-static slider, on Python floats: numpy scalars
     and the generic loop over state coordinates cost most of a fit's time, so one state
-    coordinate gets its own version. Both do the operations of ``reference`` in the same
-    order (the same numbers); where a float division by zero raises, ``reference`` (on
-    numpy scalars) gives inf or nan instead, as it always did."""
+    coordinate gets its own version. Both do the operations of ``evaluate`` in the same
+    order (the same numbers); where a float division by zero raises, ``reference`` (the
+    same on numpy scalars) gives inf or nan instead, as it always did."""
     velocity, gradient, state_rate = law.velocity, law.gradient, law.state_rate
 
-    def reference(t: float, y: FloatArray, drive: float) -> list[float]:
-        w, s = y[0], y[1:-1]
+    def evaluate(w, s, drive: float) -> list[float]:
         v = velocity(w, p)
         rates = state_rate(v, s, p)
         dmu_dw, dmu_ds = gradient(w, s, p)
@@ -176,17 +175,13 @@ def _quasi_static_rhs(law: Law, p: tuple[float, ...], stiffness: float):
             elastic -= slope * rate
         return [elastic / dmu_dw, *rates, v]
 
+    def reference(t: float, y: FloatArray, drive: float) -> list[float]:
+        return evaluate(y[0], y[1:-1], drive)
+
     def rhs(t: float, y: FloatArray, drive: float) -> list[float]:
         values = y.tolist()
-        w, s = values[0], values[1:-1]
         try:
-            v = velocity(w, p)
-            rates = state_rate(v, s, p)
-            dmu_dw, dmu_ds = gradient(w, s, p)
-            elastic = stiffness * (drive - v)
-            for slope, rate in zip(dmu_ds, rates, strict=True):
-                elastic -= slope * rate
-            return [elastic / dmu_dw, *rates, v]
+            return evaluate(values[0], values[1:-1], drive)
         except ZeroDivisionError:
             return reference(t, y, drive)
 
