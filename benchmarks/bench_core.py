@@ -62,13 +62,12 @@ _, events = simulate_mean_field(x, velocity, 2.75e-10, 1e12, 50.21, 2.75e-10 / v
 print(json.dumps({"wall": time.perf_counter() - started, "events": events}))
 """
 
-TABLE = r"""
+RELAX = r"""
 import json, sys, time
 sys.path.insert(0, sys.argv[1])
 import numpy as np
 from tests.conftest import scenario, RHO_MAX
-from nanoblock.engine import Run, simulate
-from nanoblock.kernels.stepper import following_velocity
+from nanoblock.engine import Run
 spec = json.loads(sys.argv[2])
 def build(stiffness, velocity, slip_rho):
     return scenario(
@@ -78,12 +77,24 @@ def build(stiffness, velocity, slip_rho):
                  "steps": [{"velocity": velocity, "displacement": slip_rho * RHO_MAX}]},
         run={"record_every": 5 * RHO_MAX / velocity, "initial_state": "steady", "seed": 1},
     )
-def relaxed(velocity):
-    # the interface after a rigid drive's run-in, and its mean friction force from 15 rho on
-    pre = Run(build(float("inf"), velocity, spec["relax_rho"]))
+def relax(velocity):
+    # a rigid drive's run-in of relax_rho at the velocity, and its friction force by sample
+    run = Run(build(float("inf"), velocity, spec["relax_rho"]))
     forces = []
-    while not pre.done:
-        forces.append(pre.step_to_next_sample()["friction_force"])
+    while not run.done:
+        forces.append(run.step_to_next_sample()["friction_force"])
+    return run, forces
+"""
+"""The stiffness and step tables' workers start from the same relaxed interface."""
+
+TABLE = (
+    RELAX
+    + r"""
+from nanoblock.engine import simulate
+from nanoblock.kernels.stepper import following_velocity
+def relaxed(velocity):
+    # the relaxed interface and its mean friction force from 15 rho on
+    pre, forces = relax(velocity)
     return pre.state, float(np.mean(forces[3:]))
 def cell(stiffness, velocity, start, mean_force):
     # the cell's run, its interface replaced by the relaxed one and the spring stretched
@@ -119,6 +130,7 @@ for velocity in spec["velocities"]:
         rates[f"{velocity:g} {stiffness:g}"] = counts.pop() / min(walls)
 print(json.dumps(rates))
 """
+)
 
 PROTOCOLS = r"""
 import json, sys, time
@@ -154,26 +166,15 @@ for name in ("quickstart", "creep"):
 print(json.dumps(rates))
 """
 
-STEPS = r"""
-import json, sys, time
-sys.path.insert(0, sys.argv[1])
+STEPS = (
+    RELAX
+    + r"""
 from numba import njit
-from tests.conftest import scenario, RHO_MAX
-from nanoblock.engine import Run
 from nanoblock.kernels.blocks import advance_free_blocks, split_edge
-spec = json.loads(sys.argv[2])
 velocity = spec["velocity"]
-relax = Run(scenario(
-    joint=spec["joint"],
-    interface={"n_contacts": spec["contacts"], "blocks_per_contact": spec["blocks"]},
-    loading={"stiffness": float("inf"),
-             "steps": [{"velocity": velocity, "displacement": spec["relax_rho"] * RHO_MAX}]},
-    run={"record_every": 5 * RHO_MAX / velocity, "initial_state": "steady", "seed": 1},
-))
-while not relax.done:
-    relax.step_to_next_sample()
-state, table = relax.state, relax.tables[0]
-rho, omega_a = relax.strength[0, 1], relax.params[0]["omega_a"]
+relaxed, _ = relax(velocity)
+state, table = relaxed.state, relaxed.tables[0]
+rho, omega_a = relaxed.strength[0, 1], relaxed.params[0]["omega_a"]
 @njit
 def passes(y, h, streams, x_rate, duration, edge, n):
     # n slider steps of every contact's blocks, as the stepper makes them (no jump)
@@ -202,6 +203,7 @@ for step in spec["steps"]:  # step length [rho~_max of slip]
                         "depinnings_per_block_step": events / (n * y.size)}
 print(json.dumps(out))
 """
+)
 
 STEP_LENGTHS = [1e-6, 1 / 32, 1 / 16, 1 / 8, 1 / 4, 4.0]
 """Slip per call of the free-block kernel in :func:`step_costs` [rho~_max]: the cold floor
@@ -355,10 +357,10 @@ def main() -> None:
         results["stiffness_table_1_thread"] = stiffness_table(scale, record)
         results["protocol_table_1_thread"] = protocol_table(record)
     results["step_costs_1_thread"] = step_costs(record)
-    results["step_costs_host"] = describe()  # the other rows keep their own run's host
     if not (args.table or args.steps):
         throughput(scale, record, results)
     host = describe()
+    results["step_costs_host"] = host  # --steps alone: the other rows keep their run's host
     print(f"Machine: {host['machine']}, load averages {host['load_averages']} after the runs\n")
     print("| measurement | value | target |\n|---|---|---|")
     print("\n".join(rows))
