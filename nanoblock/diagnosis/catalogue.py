@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 from nanoblock.diagnosis.steady import SteadyVariant
+from nanoblock.rsf.fit import INITIAL_OFFSET, INITIAL_VELOCITY
 
 
 @dataclass(frozen=True)
@@ -228,7 +229,13 @@ CATALOGUE: dict[str, Effect] = {
                 "initial_velocity_offset_<run>": "ln(v(0) / V(0)) per run",
             },
             "a loading step at another velocity before the record (loading.steps)",
-            {"time_series": RsfVariant("aging", initial_state=True)},
+            {
+                "time_series": RsfVariant(
+                    "aging",
+                    initial_state=True,
+                    explore=(INITIAL_OFFSET, INITIAL_VELOCITY),
+                )
+            },
             "a friction time series with slip before the first step",
             ranges={
                 "initial_state_offset": (-10.0, 10.0),
