@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 from nanoblock.diagnosis.steady import SteadyVariant
-from nanoblock.rsf.fit import INITIAL_OFFSET, INITIAL_VELOCITY
+from nanoblock.rsf.fit import INITIAL_OFFSET, INITIAL_VELOCITY, LOAD_EXPONENT
 
 
 @dataclass(frozen=True)
@@ -166,9 +166,7 @@ CATALOGUE: dict[str, Effect] = {
             {"dc_load_exponent": "n in D_c ~ W^n"},
             "interface.memory_length_exponent",
             {
-                "time_series": RsfVariant(
-                    "aging", load_exponent=True, explore=("dc_load_exponent",)
-                ),
+                "time_series": RsfVariant("aging", load_exponent=True, explore=(LOAD_EXPONENT,)),
                 "clamped_sample": RsfVariant("silicon", load_exponent=True),
             },
             "transients (steps, holds or clamped-sample curves) at two or more normal forces",

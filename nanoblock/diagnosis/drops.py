@@ -152,9 +152,9 @@ def reload_spread(
     begin, finish = travel[ends[:-1]], travel[starts[1:]]
     rise = mu[starts[1:]] - mu[ends[:-1]]
     first = np.interp(0.5 * (begin + finish), travel, mu) - mu[ends[:-1]]
-    share = np.where(
-        rise > 0.0, np.minimum(first, rise - first) / np.where(rise > 0.0, rise, 1.0), 0.0
-    )
+    rising = rise > 0.0
+    share = np.zeros(rise.size)
+    share[rising] = np.minimum(first, rise - first)[rising] / rise[rising]
     return float(np.median(share))
 
 
