@@ -558,6 +558,13 @@ def fit(
     rows: Annotated[str | None, ROWS] = None,
     mcmc: Annotated[bool, typer.Option(help="sample the posterior with emcee")] = False,
     mcmc_steps: Annotated[int, typer.Option(min=10, help="MCMC steps per walker")] = 2000,
+    loss: Annotated[
+        str,
+        typer.Option(
+            help="linear (least squares) or huber: spikes beyond 1.345 robust standard "
+            "deviations of the residuals pull with a constant force"
+        ),
+    ] = "linear",
     per_step: Annotated[
         bool,
         typer.Option(
@@ -572,10 +579,17 @@ def fit(
     n_points), OUT/report.md and OUT/fit.png (data, fit and residuals).
     """
     from nanoblock.measured import DataError, load_measurement
-    from nanoblock.rsf.fit import check_state_evolves, fit_rsf
+    from nanoblock.rsf.fit import check_loss, check_state_evolves, fit_rsf
     from nanoblock.rsf.report import write_fit
 
     _output_directory(out, writes=FIT_FILES)
+    with _bad_input(ValueError):
+        check_loss(loss, "mcmc" if mcmc else "lsq")
+    if per_step and loss != "linear":
+        _fail(
+            f"--per-step compares information criteria of least-squares fits; it does not "
+            f"go with --loss {loss} (drop one of them)"
+        )
     if mcmc:
         _require_module("emcee", "--mcmc", "pip install 'nanoblock[mcmc]'")
     with _bad_input(DataError, ValueError, RuntimeError, data=data):
@@ -589,6 +603,7 @@ def fit(
             initial_state=initial_state,
             method="mcmc" if mcmc else "lsq",
             mcmc_steps=mcmc_steps,
+            loss=loss,
         )
         if "dc" in result.free:
             check_state_evolves(measurement, result.contract["dc"], result.contract_stderr["dc"])
@@ -608,6 +623,11 @@ def fit(
         value, error = result.contract[key], result.contract_stderr[key]
         typer.echo(f"{key:<6}{value:>12.5g}  +- {error if error is not None else 0:.2g}")
     typer.echo(f"rms residual {result.rms_residual:.3g} over {result.n_points} samples")
+    if result.loss == "huber":
+        typer.echo(
+            f"huber loss: {result.downweighted} samples beyond its corner "
+            f"{result.loss_corner:.3g} (report.md)"
+        )
     for path in written.values():
         typer.echo(str(path))
 

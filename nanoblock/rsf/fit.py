@@ -25,7 +25,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
+from scipy.optimize import OptimizeResult, least_squares
+from scipy.stats import median_abs_deviation
 
 from nanoblock.measured import DataError, runs
 from nanoblock.rsf.laws import Law, law
@@ -82,6 +83,13 @@ base, a fit's trust-region steps were all rejected (the coarse tolerance's scatt
 base parameters' finite-difference gradients, 3-19, swamped the offsets' 3e-4), and the
 offsets stayed at 0 with the cost falling steadily towards -1.5 and +1."""
 _REFINED_STARTS = 2
+LOSSES = ("linear", "huber")
+"""``loss`` of :func:`fit_rsf`: least squares, or Huber's loss (quadratic within
+``HUBER_K`` robust standard deviations of the residuals, linear beyond), which bounds the
+pull of spikes (a sensor glitch, a dropped sample) on the fit."""
+HUBER_K = 1.345
+"""Huber's tuning constant in robust standard deviations: 95 % efficiency at Gaussian
+noise (Huber 1981, Sec. 4.6)."""
 MAX_LAG1 = 0.99
 """Largest residual autocorrelation used to inflate standard errors."""
 _FIT_MAX_STEPS = 5_000
@@ -224,8 +232,16 @@ class FitResult:
     abscissa_label: str
     observed_label: str
     residual_lag1: float = 0.0
-    """Lag-1 autocorrelation of the residuals (clipped to [0, MAX_LAG1]); the standard
-    errors are inflated by sqrt((1 + phi) / (1 - phi)), the AR(1) effective-size factor."""
+    """Lag-1 autocorrelation of the residuals (clipped to [0, MAX_LAG1]; with Huber's loss,
+    of the residuals clipped at its corner); the standard errors are inflated by
+    sqrt((1 + phi) / (1 - phi)), the AR(1) effective-size factor."""
+    loss: str = "linear"
+    """:data:`LOSSES`: least squares or Huber's loss."""
+    loss_corner: float | None = None
+    """Huber's corner c in units of the data (None for least squares): residuals beyond it
+    pull with a constant force."""
+    downweighted: int = 0
+    """Samples beyond the corner (Huber's loss)."""
 
     def to_json(self) -> dict:
         """The ``fit.json`` contract: law, params (mu0, a, b, dc and the law's own), stderr,
@@ -244,6 +260,11 @@ class FitResult:
             "n_points": self.n_points,
             "residual_lag1": self.residual_lag1,
             "method": self.method,
+            "loss": {
+                "name": self.loss,
+                "corner": None if self.loss_corner is None else clean(self.loss_corner),
+                "downweighted": self.downweighted,
+            },
             "free": list(self.free),
             "reference_velocity": self.reference_velocity,
             "units": {"dc": "m", "d0": "m", "v0": "m/s", STIFFNESS: "1/m", TREND: "1/m"},
@@ -857,6 +878,18 @@ def check_state_evolves(data: xr.Dataset, dc: float | None, dc_stderr: float | N
         )
 
 
+def check_loss(loss: str, method: str = "lsq") -> None:
+    """``ValueError`` naming ``loss`` unless it is one of :data:`LOSSES` and, if robust, goes
+    with the least-squares ``method`` (the MCMC likelihood is Gaussian)."""
+    if loss not in LOSSES:
+        raise ValueError(f"--loss / loss {loss!r} is not one of {', '.join(LOSSES)}")
+    if loss != "linear" and method != "lsq":
+        raise ValueError(
+            f"--loss / loss {loss!r} needs the least-squares fit: the MCMC likelihood is "
+            "Gaussian (drop --mcmc, or use loss 'linear')"
+        )
+
+
 def fit_rsf(
     data: xr.Dataset,
     law_name: str = "aging",
@@ -874,6 +907,7 @@ def fit_rsf(
     method: str = "lsq",
     mcmc_steps: int = 2000,
     seed: int = 0,
+    loss: str = "linear",
 ) -> FitResult:
     """Fit ``law_name`` to measured data (a :func:`load_measurement` Dataset).
 
@@ -895,11 +929,13 @@ def fit_rsf(
     cover every sample. ``search`` selects the multi-start grid: every gridded parameter
     (True), only the named ones (a warm start that explores new parameters), or none
     (False: a quick refit from ``initial`` alone, stopped at the coarse ODE tolerance).
-    ``method`` is ``"lsq"`` or ``"mcmc"``.
+    ``method`` is ``"lsq"`` or ``"mcmc"``. ``loss`` (:data:`LOSSES`) is the least-squares
+    one or ``"huber"``, the robust fit of :func:`_robust_refit` (``"lsq"`` only).
     """
     lw = law(law_name)
     if method not in ("lsq", "mcmc"):
         raise ValueError(f"method {method!r} is not one of 'lsq', 'mcmc'")
+    check_loss(loss, method)
     kind = data.attrs.get("kind")
     initial = dict(initial or {})
     _check_fittable(data)
@@ -930,7 +966,7 @@ def fit_rsf(
             f"{setup.problem.n_fitted} samples cannot constrain "
             f"{len(setup.problem.free)} free parameters"
         )
-    return _solve(lw, setup, method, mcmc_steps, seed, search)
+    return _solve(lw, setup, method, mcmc_steps, seed, search, loss)
 
 
 def _without_hidden_runs(setup: _Setup, holdout: Sequence[NDArray[np.bool_]]) -> _Setup:
@@ -994,6 +1030,41 @@ def _family(name: str) -> str:
     return next((prefix for prefix in _INITIAL if name.startswith(prefix + "_")), name)
 
 
+@dataclass(frozen=True)
+class _Robust:
+    """Huber's fit at its optimum: the loss's corner c (scaled residual units), the samples
+    beyond it and the variance numerator sum psi^2 / mean psi' of its standard errors."""
+
+    corner: float
+    downweighted: int
+    spread: float
+
+
+def _robust_refit(
+    problem: _Problem, start: OptimizeResult, bounds: tuple, rtol: float
+) -> tuple[OptimizeResult, _Robust]:
+    """Refit from the least-squares optimum ``start`` under Huber's loss, its corner c at
+    ``HUBER_K`` robust standard deviations (1.4826 MAD) of ``start``'s residuals.
+
+    Standard errors of the M-estimate (Huber 1981, Eq. 7.6.12 without its small-sample
+    factor): s^2 = sum psi(r)^2 / (n - p) / mean psi'(r), psi(r) = clip(r, -c, c), times
+    (J_c^T J_c)^-1 with the Jacobian scipy returns for the loss, whose rows beyond c
+    vanish (J_c^T J_c = J^T diag(psi') J: the mean psi' of the textbook formula is already
+    in it, once)."""
+    residual = start.fun
+    corner = HUBER_K * float(median_abs_deviation(residual, scale="normal"))
+    if not corner > 0.0:  # an exact fit: nothing to down-weight
+        return start, _Robust(math.inf, 0, float(residual @ residual))
+    fit = least_squares(
+        problem.residuals, start.x, args=(rtol,), method="trf", x_scale="jac",
+        diff_step=_DIFF_STEP, max_nfev=100, bounds=bounds, loss="huber", f_scale=corner,
+    )  # fmt: skip
+    inside = np.abs(fit.fun) <= corner
+    psi = np.clip(fit.fun, -corner, corner)
+    spread = float(psi @ psi) / max(float(np.mean(inside)), 1.0 / fit.fun.size)
+    return fit, _Robust(corner, int(np.sum(~inside)), spread)
+
+
 def _solve(
     lw: Law,
     setup: _Setup,
@@ -1001,8 +1072,10 @@ def _solve(
     mcmc_steps: int,
     seed: int,
     search: bool | Sequence[str],
+    loss: str = "linear",
 ) -> FitResult:
-    """Multi-start grid, coarse then fine least squares, SVD errors (and optional MCMC)."""
+    """Multi-start grid, coarse then fine least squares (then Huber's loss, with ``loss``
+    "huber": :func:`_robust_refit`), SVD errors (and optional MCMC)."""
     problem, v0 = setup.problem, setup.reference_velocity
     x0 = problem.pack(setup.start)
     starts = [x0]
@@ -1031,13 +1104,23 @@ def _solve(
             problem.residuals, coarse.x, args=(1e-10,), method="trf", x_scale="jac",
             diff_step=_DIFF_STEP, max_nfev=100, bounds=bounds,
         )  # fmt: skip
+    robust = None
+    if loss == "huber":
+        fine, robust = _robust_refit(
+            problem, fine, bounds, 1e-10 if search is not False else _COARSE_RTOL
+        )
     x, jacobian = _ordered(problem, fine.x, fine.jac)
     residual = fine.fun
     n = residual.size
     dof = max(n - x.size, 1)
-    lag1 = _residual_lag1(problem, residual)
+    if robust is None:
+        lag1 = _residual_lag1(problem, residual)
+        squares = float(residual @ residual)
+    else:  # the spikes' own (white) scatter would hide the noise's correlation
+        lag1 = _residual_lag1(problem, np.clip(residual, -robust.corner, robust.corner))
+        squares = robust.spread
     inflation = (1.0 + lag1) / (1.0 - lag1)
-    variance = float(residual @ residual) / dof * inflation
+    variance = squares / dof * inflation
     covariance = parameter_covariance(jacobian, variance)
     if method == "mcmc":
         x, covariance = _mcmc(problem, x, covariance, variance, mcmc_steps, seed)
@@ -1059,6 +1142,9 @@ def _solve(
         n_points=n,
         residual_lag1=lag1,
         method=method,
+        loss=loss,
+        loss_corner=None if robust is None else robust.corner * problem.scale,
+        downweighted=0 if robust is None else robust.downweighted,
         reference_velocity=v0,
         model=models,
         residuals=[m - y for m, y in zip(models, problem.observed, strict=True)],

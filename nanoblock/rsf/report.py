@@ -9,8 +9,9 @@ from pathlib import Path
 
 import numpy as np
 import xarray as xr
+from scipy.stats import norm
 
-from nanoblock.rsf.fit import STIFFNESS, TREND, FitResult
+from nanoblock.rsf.fit import HUBER_K, STIFFNESS, TREND, FitResult
 from nanoblock.rsf.laws import law
 from nanoblock.rsf.steps import StepComparison, step_text
 
@@ -65,6 +66,21 @@ def _format(value: float | None, error: float | None) -> tuple[str, str]:
     return text, "unidentified" if not math.isfinite(error) else f"{error:.2g}"
 
 
+def _loss_text(result: FitResult) -> str:
+    """With Huber's loss: how many samples it down-weighted, against Gaussian noise's share."""
+    if result.loss != "huber":
+        return ""
+    gaussian = 2.0 * float(norm.sf(HUBER_K))
+    return (
+        f" Huber's loss: {result.downweighted} of {result.n_points} samples "
+        f"({100 * result.downweighted / result.n_points:.0f} %; {100 * gaussian:.0f} % for "
+        f"Gaussian noise) lie beyond its corner {result.loss_corner:.3g} ({HUBER_K} robust "
+        "standard deviations of the least-squares residuals) and pull with a constant force. "
+        "Where the parameters move much from the least-squares fit's, the misfit's tails "
+        "carry them (spikes, or a systematic misfit: `nanoblock diagnose` tells which)."
+    )
+
+
 def _report(result: FitResult, data: xr.Dataset, figure: str) -> str:
     contract_rows = []
     for key in ("mu0", "a", "b", "dc"):
@@ -110,8 +126,10 @@ def _report(result: FitResult, data: xr.Dataset, figure: str) -> str:
         "|---|---|---|---|",
         *native_rows,
         "",
-        "Standard errors come from the Jacobian at the optimum with white-noise residuals; "
-        "correlated residuals make them optimistic.",
+        "Standard errors come from the Jacobian at the optimum, inflated by "
+        f"sqrt((1 + phi) / (1 - phi)) for the residuals' lag-1 autocorrelation phi = "
+        f"{result.residual_lag1:.2f} (AR(1)); structure beyond AR(1) makes them optimistic."
+        + _loss_text(result),
     ]
     if unidentified:
         lines += [
