@@ -458,15 +458,45 @@ def _trends(residuals: list[np.ndarray], covariates: dict[str, list[np.ndarray]]
     return out
 
 
-def _supported(candidate: Candidate, base: Candidate, noise: float) -> bool:
-    delta = base.information_criterion - candidate.information_criterion
-    if delta <= STRONG_EVIDENCE or candidate.heldout_error is None or candidate.implausible:
-        return False
-    if candidate.heldout_error >= base.heldout_error:
-        return False
+def excess_explained(candidate: Candidate, base: Candidate, noise: float) -> float:
+    """Share of the base model's variance above ``noise`` (the floor) that ``candidate``
+    removes (0 when the base is within it)."""
     excess = base.rms**2 - noise**2
-    explained = (base.rms**2 - candidate.rms**2) / excess if excess > 0 else 0.0
-    return not candidate.structure.systematic or explained >= EXCESS_EXPLAINED
+    return (base.rms**2 - candidate.rms**2) / excess if excess > 0 else 0.0
+
+
+def shortfalls(candidate: Candidate, base: Candidate, noise: float) -> list[str]:
+    """Why the verdict rule (module docstring) does not support ``candidate`` as a cause,
+    one phrase per test it fails, judged against the base and the noise floor ``noise``;
+    empty when it is supported."""
+    reasons = []
+    delta = base.information_criterion - candidate.information_criterion
+    if delta <= STRONG_EVIDENCE:
+        reasons.append(
+            f"it gains {delta:.1f} in the information criterion, "
+            f"more than {STRONG_EVIDENCE:g} needed"
+        )
+    reasons += candidate.implausible
+    heldout = candidate.heldout_error
+    if heldout is None:
+        if not reasons:
+            reasons.append("it was not scored out of sample")
+    elif heldout >= base.heldout_error:
+        ratio = (
+            f" (error ratio {base.heldout_error / heldout:.2f})" if math.isfinite(heldout) else ""
+        )
+        reasons.append(f"it forecasts the held-out data no better than the base model{ratio}")
+    explained = excess_explained(candidate, base, noise)
+    if candidate.structure.systematic and explained < EXCESS_EXPLAINED:
+        reasons.append(
+            f"it removes {100 * explained:.0f} % of the misfit above the noise floor, "
+            f"{100 * EXCESS_EXPLAINED:.0f} % needed"
+        )
+    return reasons
+
+
+def _supported(candidate: Candidate, base: Candidate, noise: float) -> bool:
+    return not shortfalls(candidate, base, noise)
 
 
 @dataclass

@@ -14,7 +14,7 @@ import numpy as np
 import xarray as xr
 
 from nanoblock.diagnosis.catalogue import CATALOGUE
-from nanoblock.diagnosis.core import Candidate, Diagnosis
+from nanoblock.diagnosis.core import Candidate, Diagnosis, shortfalls
 from nanoblock.diagnosis.simulation import calibrated_scenarios
 from nanoblock.diagnosis.window_study import window_text
 from nanoblock.toml_writer import scenario_toml
@@ -164,7 +164,8 @@ def _summary(diagnosis: Diagnosis) -> str:
         text = {
             "none": "The base model explains the record within its noise.",
             "unexplained": "The base model leaves a systematic misfit that no catalogue "
-            "extension removes with plausible parameters and a better forecast.",
+            "extension removes with plausible parameters and a better forecast."
+            + _closest(diagnosis),
         }[cause]
         return text + _not_confirmed(diagnosis, "Not confirmed by the simulation")
     fitted = diagnosis.extended.fit.params
@@ -201,6 +202,27 @@ def _summary(diagnosis: Diagnosis) -> str:
         + forecast
         + _not_confirmed(diagnosis, "Ranked above it but not confirmed by the simulation")
     )
+
+
+CLOSEST = 2
+"""Extensions (lowest information criterion first) whose shortfalls an ``unexplained``
+report names in its first paragraph."""
+
+
+def _closest(diagnosis: Diagnosis) -> str:
+    """The misfit against the noise floor and why the closest extensions fall short of
+    the verdict rule (:func:`~nanoblock.diagnosis.core.shortfalls`), in sentences."""
+    floor = diagnosis.noise_model.get("floor", diagnosis.noise)
+    text = (
+        f" Its rms residual is {diagnosis.base.rms:.2g} against a noise floor of {floor:.2g} "
+        "at the model's resolution."
+    )
+    named = [
+        f"`{c.id}`: {'; '.join(reasons)}"
+        for c in diagnosis.candidates[:CLOSEST]
+        if (reasons := shortfalls(c, diagnosis.base, floor))
+    ]
+    return text + (f" Closest: {'. '.join(named)}." if named else "")
 
 
 def _not_confirmed(diagnosis: Diagnosis, opening: str) -> str:
