@@ -6,7 +6,7 @@ Real records first. A time series is averaged to uniform load-point travel
 gives the same verdict; it is searched for stick-slip (:mod:`.drops`), which no smooth
 law can fit (verdict ``unstable_sliding``). The noise is measured twice: white noise at the
 sample scale (second differences) and the floor at the model's resolution (the base
-residuals' scatter about their own running mean over 1 % of the travel). When the floor
+residuals' scatter about their own running mean over 5 % of the travel). When the floor
 exceeds the white noise by 1.5 the noise is *coloured*: residuals are tested against the
 floor, and information criteria count the effective samples n (1 - phi) / (1 + phi) of
 residuals with lag-1 autocorrelation phi (that of the best-fitting candidate).
