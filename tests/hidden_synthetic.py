@@ -59,18 +59,21 @@ BASE_TAU = 1e-6
 velocity saturation of ~5e-4 in every record)."""
 V1 = 1e-6
 """First (and base) load-point velocity of every time series [m/s]."""
+HOLD = 100.0
+"""Hold of every time series [D / v1]."""
 COLOURED_SHARE = 1.0 / 3.0
 """Share of time series with AR(1) noise (lag-1 autocorrelation 0.5-0.9)."""
 
 
 def _protocol(d0: float, v1: float) -> list[tuple[float, float]]:
     """Load-point (velocity [m/s], duration [s]): 10 D, up-step 30 D, down-step 100 D
-    (4-6 stick-slip cycles below the critical stiffness), hold 100 D / v1, reslide 15 D."""
+    (4-6 stick-slip cycles below the critical stiffness), hold :data:`HOLD` D / v1,
+    reslide 15 D."""
     return [
         (v1, 10 * d0 / v1),
         (10 * v1, 30 * d0 / (10 * v1)),
         (v1, 100 * d0 / v1),
-        (0.0, 100 * d0 / v1),
+        (0.0, HOLD * d0 / v1),
         (v1, 15 * d0 / v1),
     ]
 
@@ -105,9 +108,16 @@ def draw_interface(rng: np.random.Generator) -> tuple[float, float, float, float
 
 
 def stated_stiffness(a: float, b: float, d0: float) -> float:
-    """The K/W [1/m] a record states: 3 (B - a)+ + 0.6 a over D_c, in the renewal
-    relaxation's effective aging-law values (:data:`RENEWAL_B`, :data:`RENEWAL_DC`)."""
-    return (3 * max(RENEWAL_B * b - a, 0.0) + 0.6 * a) / (RENEWAL_DC * d0)
+    """The K/W [1/m] a record states, in the renewal relaxation's effective aging-law values
+    B, D_c (:data:`RENEWAL_B`, :data:`RENEWAL_DC`): 3 (B - a)+ + 0.6 a over D_c, and at
+    least what unloads the hold's healing B ln(1 + t_h V1 / D_c), less a ln 20, over
+    1.5 D_c. The reslide then peaks near 20 V1 (3-23 V1 on matrix draws 0-35), not in a
+    quasi-static slip event: such an event's stress drop grows without bound as
+    tau_m -> 0, so the creep onset time of every effect-free record would be visible in it
+    (draw #8 at the first bound alone: 1e6 V1, 4.5 D of slip)."""
+    healing = RENEWAL_B * b * math.log1p(HOLD / RENEWAL_DC)
+    steady = 3 * max(RENEWAL_B * b - a, 0.0) + 0.6 * a
+    return max(steady, (healing - a * math.log(20.0)) / 1.5) / (RENEWAL_DC * d0)
 
 
 def draw_effect(effect: str, rng: np.random.Generator, b: float, d0: float) -> dict[str, float]:

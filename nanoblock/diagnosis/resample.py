@@ -24,8 +24,8 @@ from nanoblock.rsf.fit import prepare_runs
 from nanoblock.rsf.slider import LoadPointHistory
 
 BINS_PER_RUN = 1000
-"""Bins of equal load-point progress per run (the model's resolution is 1 % of a run's
-travel: :data:`~nanoblock.diagnosis.statistics.RESOLUTION_SAMPLES` bins)."""
+"""Bins of equal load-point progress per run (the noise floor's running mean spans 5 % of a
+run's travel: :data:`~nanoblock.diagnosis.statistics.RESOLUTION_SAMPLES` bins)."""
 
 
 _PIECEWISE = ("run", "load_point_velocity")
