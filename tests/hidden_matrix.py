@@ -25,8 +25,9 @@ from nanoblock.diagnosis import diagnose
 from nanoblock.diagnosis.core import DEFAULT_CLOSURE, closed_base
 from nanoblock.diagnosis.resample import resample_by_travel
 from nanoblock.diagnosis.surrogates import Measurement
+from nanoblock.rsf.fit import fit_rsf, split_by_force
 from tests.engine_synthetic import ENGINE_EFFECTS, engine_time_series
-from tests.hidden_synthetic import EFFECTS, MAKERS
+from tests.hidden_synthetic import EFFECTS, MAKERS, draw_interface
 
 SEED = 20261125
 VISIBLE_CHI2 = 25.0
@@ -84,6 +85,28 @@ def base_chi2(data, clean, closure: str = DEFAULT_CLOSURE) -> float:
         float(np.sum((m - y) ** 2)) for m, y in zip(fit.model, measurement.observed, strict=True)
     )
     return squares / variance
+
+
+def truth_chi2(case: Case) -> dict[str, float]:
+    """chi^2 of the renewal law at a time-series case's true a, b, D (only mu0 refitted)
+    against its noiseless record, over every run at the variance of the noise actually
+    added: ``recorded`` (the record's samples) and ``resampled``
+    (:func:`~nanoblock.diagnosis.resample.resample_by_travel`, the diagnosis's input).
+    An effect-free record should leave both below :data:`VISIBLE_CHI2`."""
+    a, b, d0, mu0 = draw_interface(case.rng())
+    data, clean = ALL_MAKERS[case.kind](case.effect, case.rng())
+    variance = float(np.var(_signal(data) - _signal(clean)))
+    chi2 = {}
+    for label, record in (("recorded", clean), ("resampled", resample_by_travel(clean))):
+        squares = 0.0
+        for run in split_by_force(record):
+            fit = fit_rsf(
+                run, "renewal", stiffness=clean.attrs["stiffness_per_load"],
+                initial={"mu0": mu0, "a": a, "b": b, "dc": d0}, free=["mu0"], search=False,
+            )  # fmt: skip
+            squares += float(np.sum(fit.residuals[0] ** 2))
+        chi2[label] = squares / variance
+    return chi2
 
 
 def expected_answer(

@@ -127,25 +127,14 @@ def test_resampling_averages_bins_of_equal_travel_within_segments() -> None:
 )
 def test_resampling_keeps_an_effect_free_record_in_its_laws_family() -> None:
     """The renewal law at the generator's true parameters (only mu0 refitted) fits
-    effect-free matrix draw #1 to chi^2 0.57 (497 samples, noise actually added) as
+    effect-free matrix draw #1 to chi^2 1.7 over its three runs (noise actually added) as
     recorded, and must do as well once the record is resampled by travel: below
-    VISIBLE_CHI2 = 25. Measured 2026-12-07: 558 (303 bins), the worst bin 3.6 D into the
-    reslide, where the friction drops by ~0.03 within one bin of load-point travel."""
-    from tests.hidden_matrix import VISIBLE_CHI2
-    from tests.hidden_synthetic import draw_interface
+    VISIBLE_CHI2 = 25. Measured 2026-12-07: 1673, the worst bin 3.6 D into the reslide,
+    where the friction drops by ~0.03 within one bin of load-point travel
+    (``benchmarks/bench_resampling_bias.py``: every effect-free draw)."""
+    from tests.hidden_matrix import VISIBLE_CHI2, truth_chi2
 
-    case = Case("time_series", "none", 1)
-    a, b, d0, mu0 = draw_interface(case.rng())
-    data, clean = time_series("none", case.rng())
-    variance = float(np.var((data.mu - clean.mu).values))
-    chi2 = {}
-    for label, record in (("recorded", clean), ("resampled", resample_by_travel(clean))):
-        run = record.where(record.run == 0, drop=True)
-        fit = fit_rsf(
-            run, "renewal", stiffness=clean.attrs["stiffness_per_load"],
-            initial={"mu0": mu0, "a": a, "b": b, "dc": d0}, free=["mu0"], search=False,
-        )  # fmt: skip
-        chi2[label] = float(np.sum(fit.residuals[0] ** 2)) / variance
+    chi2 = truth_chi2(Case("time_series", "none", 1))
     assert chi2["recorded"] < VISIBLE_CHI2, chi2
     assert chi2["resampled"] < VISIBLE_CHI2, chi2
 
