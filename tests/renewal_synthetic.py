@@ -13,8 +13,8 @@ by a predictor-corrector: a backward-Euler predictor with the state at the step'
 then the spring by the trapezoid rule with the predicted state at its end (slip per step
 <= 0.01 D, |d mu| <= a / 20, and steps <= 2 % of the time since the segment began).
 On the matrix's effect-free draws it agrees with the renewal law of
-:mod:`nanoblock.rsf.laws` at the true parameters to chi^2 <= 18 per run at the matrix's
-noise (median 0.7; the first-order step with the state lagged and cohorts blind to V left
+:mod:`nanoblock.rsf.laws` at the true parameters to chi^2 <= 17.4 per run at the matrix's
+noise (median 0.8; the first-order step with the state lagged and cohorts blind to V left
 up to 1e-3 after every change of velocity, chi^2 of hundreds). Variants:
 
 - ``slip_like``: a contact keeps the area of its birth, set by the contact time D / V at

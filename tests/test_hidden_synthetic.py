@@ -109,7 +109,7 @@ def test_effect_free_records_are_in_the_renewal_laws_family() -> None:
     :mod:`nanoblock`'s renewal law (its own code path, LSODA) differ by chi^2 per run,
     at the record's sample times and the smallest noise the matrix draws, below the
     expected-answer rule's visibility, VISIBLE_CHI2 = 25 (measured on draws 0-35: at
-    most 17, median 0.8; with the predictor-corrector step but the stiffness without the
+    most 17.4, median 0.8; with the predictor-corrector step but the stiffness without the
     hold's healing, 13 of 36 were above 1000, up to 2e5)."""
     worst = []
     for index in range(GENERATOR_DRAWS):
