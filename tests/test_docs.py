@@ -259,13 +259,19 @@ def test_figures_script_makes_the_quickstart_figure(tmp_path) -> None:
 
 
 def test_readme_laboratory_verdicts_are_those_the_benchmark_wrote() -> None:
-    """Every verdict in the README's laboratory table is the one
-    ``benchmarks/bench_diagnosis.py`` wrote to results_diagnosis.json, in its order."""
+    """Every verdict and forecast gain in the README's laboratory table is the one
+    ``benchmarks/bench_diagnosis.py`` wrote to results_diagnosis.json, in its order (the
+    gain of the best extension, in brackets, where the verdict is ``unexplained``)."""
     results = json.loads((ROOT / "benchmarks" / "results_diagnosis.json").read_text())
-    expected = [v["cause"] for k, v in results["results"].items() if k != "synthetic_5000"]
+    rows = [v for k, v in results["results"].items() if k != "synthetic_5000"]
     section = README.read_text().split("## On laboratory records")[1].split("\n## ")[0]
-    shown = re.findall(r"^\| [^|]+ \| `([a-z_]+)` \|", section, flags=re.MULTILINE)
-    assert shown == expected
+    shown = re.findall(r"^\| [^|]+ \| `([a-z_]+)` \| ([^|]+) \|", section, flags=re.MULTILINE)
+    assert [cause for cause, _ in shown] == [row["cause"] for row in rows]
+    for (_, gain), row in zip(shown, rows, strict=True):
+        if row["cause"] == "unstable_sliding":
+            assert gain.strip() == "-"
+            continue
+        assert f"{row['gain']['heldout_error_ratio']:.2f}" in gain, (gain, row["cause"])
 
 
 def test_readme_hidden_effect_matrix_is_the_one_the_benchmark_wrote() -> None:
@@ -274,7 +280,8 @@ def test_readme_hidden_effect_matrix_is_the_one_the_benchmark_wrote() -> None:
     ``--closure=auto`` and ``--closure=best`` those of ``..._auto.json`` and
     ``..._best.json`` (a stratified prefix is quoted beside the default's count on the
     same cases), and its counts on the engine-made records those of
-    ``results_hidden_effects_engine_time_series[_best].json``."""
+    ``results_hidden_effects_engine_time_series[_best].json``, and its effect-free rerun
+    that of ``..._auto_none.json``."""
     from tests.hidden_matrix import markdown
 
     path = ROOT / "benchmarks" / "results_hidden_effects_time_series.json"
@@ -310,6 +317,11 @@ def test_readme_hidden_effect_matrix_is_the_one_the_benchmark_wrote() -> None:
     quoted = words.split("engine_time_series`):")[1]
     assert quoted.startswith(f" {engine[0]['right']} of {engine[0]['cases']} right,")
     assert f"`--closure best` {engine[1]['right']} of {engine[1]['cases']}" in quoted
+    free = json.loads(path.with_name(f"{path.stem}_auto_none.json").read_text())["none_expected"]
+    assert (
+        f"calls {free['right']} of {free['cases']} fresh effect-free draws `none` (lower bound "
+        f"{free['lower_bound']:.2f}" in words
+    )
 
 
 def test_readme_quick_start_times_are_those_the_benchmark_wrote() -> None:

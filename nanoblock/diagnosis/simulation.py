@@ -463,15 +463,17 @@ def calibrated_scenarios(
 
 
 def record_times(run: RunData, scale: float, run_in: float) -> FloatArray:
-    """The record's sample times on the simulation's clock [s]: scaled, after the run-in."""
-    return (run.time - run.time[0]) * scale + run_in
+    """The times a model of the record is evaluated at (:attr:`RunData.evaluation_times`)
+    on the simulation's clock [s]: scaled, after the run-in."""
+    times = run.evaluation_times
+    return (times - times[0]) * scale + run_in
 
 
 def _misfit(simulated: list[FloatArray], run: RunData, data_noise: float) -> dict:
-    """RMS of the seeds' mean simulated friction (at the record's times) minus the data
-    (levels matched), the noise of that mean from the seeds' spread, and the systematic
-    part."""
-    seeds = np.array([mu - mu.mean() for mu in simulated])
+    """RMS of the seeds' mean simulated friction (at :func:`record_times`, as the samples
+    see it) minus the data (levels matched), the noise of that mean from the seeds'
+    spread, and the systematic part."""
+    seeds = np.array([mu - mu.mean() for mu in map(run.sampled, simulated)])
     difference = seeds.mean(axis=0) - (run.mu - run.mu.mean())
     rms = float(np.sqrt(np.mean(difference**2)))
     spread = float(np.mean(np.var(seeds, axis=0, ddof=1))) if len(seeds) > 1 else 0.0

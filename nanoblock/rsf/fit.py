@@ -109,6 +109,21 @@ class RunData:
     """Measured from the run's first sample [m]."""
     normal_force: float
     """The run's normal force W [N] (NaN when the data do not give it)."""
+    model_time: FloatArray | None = None
+    """For samples that are bin means (:mod:`nanoblock.diagnosis.resample`): the times
+    [s] a model is averaged over, (samples, nodes), with ``model_weight``."""
+    model_weight: FloatArray | None = None
+
+    @property
+    def evaluation_times(self) -> FloatArray:
+        """The times [s] a model of the run is evaluated at, non-decreasing."""
+        return self.time if self.model_time is None else self.model_time.ravel()
+
+    def sampled(self, model: FloatArray) -> FloatArray:
+        """A model at :attr:`evaluation_times` as the samples see it (bin means)."""
+        if self.model_time is None or self.model_weight is None:
+            return model
+        return np.sum(model.reshape(self.model_time.shape) * self.model_weight, axis=1)
 
 
 def _history_from_displacement(time: FloatArray, displacement: FloatArray) -> LoadPointHistory:
@@ -176,8 +191,13 @@ def prepare_runs(data: xr.Dataset) -> list[RunData]:
             if "normal_force" in run
             else float(data.attrs.get("normal_force", math.nan))
         )
+        averaged = {
+            name: run[name].values for name in ("model_time", "model_weight") if name in run
+        }
         prepared.append(
-            RunData(time, run["mu"].values, history, displacement - displacement[0], force)
+            RunData(
+                time, run["mu"].values, history, displacement - displacement[0], force, **averaged
+            )
         )
     return prepared
 
@@ -649,10 +669,10 @@ def _time_series_setup(
         if key not in cache:
             if len(cache) >= _CACHED_RUNS:
                 del cache[next(iter(cache))]
-            cache[key] = solve_slider(
-                lw, law_params, run.history, run.time, stiffness, rtol=rtol,
+            cache[key] = run.sampled(solve_slider(
+                lw, law_params, run.history, run.evaluation_times, stiffness, rtol=rtol,
                 initial_velocity=pace, initial_state=start, max_steps=_FIT_MAX_STEPS,
-            ).friction  # fmt: skip
+            ).friction)  # fmt: skip
         return cache[key]
 
     def forward(values: Mapping[str, float], rtol: float) -> list[FloatArray]:
@@ -680,7 +700,8 @@ def _twins(prepared: Sequence[RunData]) -> list[int]:
             next(
                 j
                 for j, other in enumerate(prepared[: len(twins) + 1])
-                if np.array_equal(other.time, run.time)
+                if np.array_equal(other.evaluation_times, run.evaluation_times)
+                and np.array_equal(other.model_weight, run.model_weight)
                 and np.array_equal(other.history.starts, run.history.starts)
                 and np.array_equal(other.history.velocities, run.history.velocities)
             )
