@@ -509,6 +509,14 @@ def test_an_extension_the_simulator_cannot_make_is_refused_not_skipped() -> None
     assert check["status"] == "not_run" and "leaves no friction" in check["reason"]
 
 
+@pytest.mark.xfail(
+    strict=True,
+    reason="measured 2026-12-07: on this record the check's outcome is not a property of "
+    "the physics. At seed 0 the extended/base systematic misfit was 0.55 at the fit before "
+    "the model was averaged over each travel bin's samples, 1.06 and 1.63 with its D2 "
+    "0.25 % longer and shorter, 1.03 at today's fit (D2 0.1-0.25 % apart); with the "
+    "spring doubled 0.55-1.21 over the same +-0.25 % (issue 15)",
+)
 def test_simulation_check_switches_on_a_second_contact_population() -> None:
     """two_state_variable in the simulator: a record of the independent renewal generator
     with a second population (b2 = 0.6 b, D2 = 12 D), its aging2 fit turned into
