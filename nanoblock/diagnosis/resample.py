@@ -28,7 +28,7 @@ import numpy as np
 import xarray as xr
 
 from nanoblock.measured import runs
-from nanoblock.rsf.fit import prepare_runs
+from nanoblock.rsf.fit import AVERAGING_COLUMNS, prepare_runs
 from nanoblock.rsf.slider import LoadPointHistory
 
 BINS_PER_RUN = 1000
@@ -39,10 +39,11 @@ run's travel: :data:`~nanoblock.diagnosis.statistics.RESOLUTION_SAMPLES` bins)."
 NODES_PER_BIN = 16
 """Sample times per bin a model is averaged over (all of a bin's samples up to this many)."""
 
-_AVERAGING = {
-    "model_time": {"units": "s", "long_name": "sample times a model is averaged over"},
-    "model_weight": {"units": "1", "long_name": "weight of each model time in the bin mean"},
-}
+_AVERAGING_ATTRS = (
+    {"units": "s", "long_name": "sample times a model is averaged over"},
+    {"units": "1", "long_name": "weight of each model time in the bin mean"},
+)
+"""Attributes of :data:`~nanoblock.rsf.fit.AVERAGING_COLUMNS`, in its order."""
 
 _PIECEWISE = ("run", "load_point_velocity")
 """Columns constant within a bin, kept exactly (a mean would round them)."""
@@ -83,10 +84,9 @@ def resample_by_travel(data: xr.Dataset) -> xr.Dataset:
     """A ``time_series`` record averaged over bins of equal drive progress, run by run,
     with the sample times a model is averaged over in each bin (see the module
     docstring); other kinds of data, and a record already resampled, are returned
-    unchanged. The result keeps the
-    variables, their attributes and the record's attributes; ``resampled_from`` records
-    the original number of samples."""
-    if data.attrs.get("kind") != "time_series" or "model_time" in data:
+    unchanged. The result keeps the variables, their attributes and the record's
+    attributes; ``resampled_from`` records the original number of samples."""
+    if data.attrs.get("kind") != "time_series" or AVERAGING_COLUMNS[0] in data:
         return data
     binned = []
     for part, prepared in zip(runs(data), prepare_runs(data), strict=True):
@@ -112,8 +112,10 @@ def resample_by_travel(data: xr.Dataset) -> xr.Dataset:
                 columns[name] = ("sample", values[first[order]], variable.attrs)
         if width > 1:
             times, weights = _nodes(part["time"].values, inverse, counts, width)
-            for name, values in (("model_time", times), ("model_weight", weights)):
-                columns[name] = (("sample", "node"), values[order], _AVERAGING[name])
+            for name, values, attrs in zip(
+                AVERAGING_COLUMNS, (times, weights), _AVERAGING_ATTRS, strict=True
+            ):
+                columns[name] = (("sample", "node"), values[order], attrs)
         pieces.append(xr.Dataset(columns))
     out = xr.concat(pieces, dim="sample") if len(pieces) > 1 else pieces[0]
     out.attrs = {**data.attrs, "resampled_from": int(data.sizes["sample"])}

@@ -95,6 +95,9 @@ MAX_LAG1 = 0.99
 _FIT_MAX_STEPS = 5_000
 """LSODA steps per output interval during fits: pathological trial parameters fail fast."""
 _CACHED_RUNS = 64
+AVERAGING_COLUMNS = ("model_time", "model_weight")
+"""Columns of a record resampled by travel that average a model over each bin's samples
+(:mod:`nanoblock.diagnosis.resample`; :attr:`RunData.model_time`)."""
 """Integrated runs a time-series fit remembers (see ``_time_series_setup``)."""
 
 
@@ -191,9 +194,7 @@ def prepare_runs(data: xr.Dataset) -> list[RunData]:
             if "normal_force" in run
             else float(data.attrs.get("normal_force", math.nan))
         )
-        averaged = {
-            name: run[name].values for name in ("model_time", "model_weight") if name in run
-        }
+        averaged = {name: run[name].values for name in AVERAGING_COLUMNS if name in run}
         prepared.append(
             RunData(
                 time, run["mu"].values, history, displacement - displacement[0], force, **averaged
