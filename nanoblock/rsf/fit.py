@@ -95,10 +95,10 @@ MAX_LAG1 = 0.99
 _FIT_MAX_STEPS = 5_000
 """LSODA steps per output interval during fits: pathological trial parameters fail fast."""
 _CACHED_RUNS = 64
+"""Integrated runs a time-series fit remembers (see ``_time_series_setup``)."""
 AVERAGING_COLUMNS = ("model_time", "model_weight")
 """Columns of a record resampled by travel that average a model over each bin's samples
 (:mod:`nanoblock.diagnosis.resample`; :attr:`RunData.model_time`)."""
-"""Integrated runs a time-series fit remembers (see ``_time_series_setup``)."""
 
 
 @dataclass(frozen=True)
