@@ -7,7 +7,7 @@ gives the same verdict; it is searched for stick-slip (:mod:`.drops`), which no 
 law can fit (verdict ``unstable_sliding``). The noise is measured twice: white noise at the
 sample scale (second differences) and the floor at the model's resolution (the base
 residuals' scatter about their own running mean over 5 % of the travel). When the floor
-exceeds the white noise by 1.5, or the base residuals in steady sliding, high-passed by that
+exceeds the white noise by 1.5, or the best fit's residuals in steady sliding, high-passed by that
 running mean, keep a lag-1 autocorrelation beyond white noise's at the 1e-3 level
 (:func:`~.statistics.noise_lag1_z`), the noise is *coloured*: residuals are tested against
 the floor, and information criteria count the effective samples n (1 - phi) / (1 + phi) of
@@ -289,17 +289,19 @@ class _NoiseModel:
 
 
 def _noise_model(measurement: Measurement, residuals: dict[str, list[np.ndarray]]) -> _NoiseModel:
-    """White noise of the data, the floor at the model's resolution and the whiteness test
-    of the noise (time series: from the base residuals in steady sliding) and, for coloured
-    noise, the effective size of the best fit's residuals."""
+    """White noise of the data, the floor at the model's resolution (time series: from the
+    base residuals in steady sliding), the whiteness test of the noise (from the best
+    fit's residuals in steady sliding, so a misfit of the base that bends within the
+    floor's window does not read as colour) and, for coloured noise, the effective size of
+    the best fit's residuals."""
     white = noise_level(measurement.observed)
     if measurement.kind != "time_series":
         return _NoiseModel(white, white, 0.0, False, None)
-    steady = _steady_stretches(measurement, residuals["base"])
-    floor, lag1_z = resolution_noise(steady), noise_lag1_z(steady)
+    best = min(residuals.values(), key=lambda r: float(sum(np.dot(x, x) for x in r)))
+    floor = resolution_noise(_steady_stretches(measurement, residuals["base"]))
+    lag1_z = noise_lag1_z(_steady_stretches(measurement, best))
     if floor <= COLOURED * white and lag1_z <= COLOURED_Z:
         return _NoiseModel(white, floor, lag1_z, False, None)
-    best = min(residuals.values(), key=lambda r: float(sum(np.dot(x, x) for x in r)))
     n = sum(r.size for r in best)
     return _NoiseModel(white, floor, lag1_z, True, effective_size(n, lag1_autocorrelation(best)))
 
