@@ -174,7 +174,8 @@ def _intact(store: RunStore, checkpoint: bool = False) -> None:
 def _sweep_interrupt(out: Path) -> Iterator[None]:
     """Ctrl-C during a sweep: the cluster's shutdown is not logged (it printed scheduler
     errors, pending asyncio tasks and tracebacks of its threads); one line says how many
-    tasks are done and that the same command resumes the rest, exit 130."""
+    tasks are done and that the same command resumes the rest (or that none is left, when
+    the interrupt came as the cluster shut down after the last task), exit 130."""
     import logging
     import signal
 
@@ -194,8 +195,11 @@ def _sweep_interrupt(out: Path) -> Iterator[None]:
         if (out / MANIFEST).exists():
             tasks = read_manifest(out)["tasks"]
             done = sum(entry["status"] == "done" for entry in tasks)
-            said = f"{done} of {len(tasks)} tasks done ({out / MANIFEST}); the same command "
-            typer.echo(f"interrupted: {said}resumes the rest", err=True)
+            rest = "the same command resumes the rest" if done < len(tasks) else "none is left"
+            typer.echo(
+                f"interrupted: {done} of {len(tasks)} tasks done ({out / MANIFEST}); {rest}",
+                err=True,
+            )
         else:
             typer.echo("interrupted before the first task; nothing was written", err=True)
         raise typer.Exit(130) from None

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
+from scipy.signal import lfilter
 from scipy.stats import binom
 from typer.testing import CliRunner
 
@@ -58,6 +59,21 @@ def test_structure_of_white_and_of_correlated_residuals() -> None:
     walk = [np.cumsum(rng.standard_normal(4000)) * 0.05]
     assert structure(walk, 1.0).systematic
     assert runs_test(walk) < -5
+
+
+def test_structure_names_its_failed_tests_and_drops_ordering_ones_on_coloured_noise() -> None:
+    """AR(1) residuals (phi = 0.5) of unit variance judged against their own standard
+    deviation: chi^2 ~ 1 passes, while lag-1 (z ~ 0.5 sqrt(4000) = 32) and sign runs fail
+    on the white-noise branch; flagged as coloured noise only the variance test applies;
+    twice the noise's variance fails it either way."""
+    rng = np.random.default_rng(4)
+    shocks = rng.standard_normal(4200) * math.sqrt(0.75)
+    ar = [lfilter([1.0], [1.0, -0.5], shocks)[200:]]
+    failed = structure(ar, 1.0).failed
+    assert len(failed) == 2 and failed[0].startswith("sign runs") and "lag-1" in failed[1]
+    assert structure(ar, 1.0, coloured=True, n_effective=4000 / 3).failed == []
+    doubled = structure([math.sqrt(2.0) * ar[0]], 1.0, coloured=True, n_effective=4000 / 3)
+    assert doubled.systematic and doubled.failed[0].startswith("chi^2 ratio")
 
 
 def test_blocked_folds_hold_out_every_sample_once() -> None:

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import xarray as xr
 from scipy.integrate import solve_ivp
+from scipy.signal import lfilter
 from typer.testing import CliRunner
 
 from nanoblock.cli import app
@@ -23,7 +24,10 @@ from nanoblock.diagnosis.plausibility import implausible
 from nanoblock.diagnosis.report import _summary
 from nanoblock.diagnosis.resample import BINS_PER_RUN, resample_by_travel
 from nanoblock.diagnosis.statistics import (
+    COLOURED,
+    COLOURED_Z,
     effective_size,
+    noise_lag1_z,
     noise_level,
     resolution_noise,
     structure,
@@ -228,6 +232,41 @@ def test_resolution_noise_equals_white_noise_and_sees_coloured_noise() -> None:
         ar[i] = 0.9 * ar[i - 1] + rng.standard_normal()
     assert resolution_noise([ar]) > 1.5 * noise_level([ar])
     assert effective_size(1000, 0.9) == pytest.approx(1000 * 0.1 / 1.9)
+
+
+def _ar1(rng: np.random.Generator, n: int, phi: float) -> np.ndarray:
+    """Stationary AR(1) noise of unit variance (a 200-sample run-in dropped)."""
+    shocks = rng.standard_normal(n + 200) * math.sqrt(1.0 - phi * phi)
+    return lfilter([1.0], [1.0, -phi], shocks)[200:]
+
+
+@pytest.mark.parametrize("layout", ["long", "short"])
+def test_noise_lag1_z_is_standard_normal_on_white_noise_and_sees_mild_colour(layout) -> None:
+    """The whiteness test of the colour switch, on 900 samples in three stretches of
+    250-300 (``long``, high-passed by the 50-sample running mean) or thirty of 30
+    (``short``, each about its own mean). White noise, 2000 draws: mean z within z_bound(2)
+    Monte Carlo errors of 0 (1 / sqrt(2000): power 0.9 against a bias of 0.1) and calls of
+    colour at ``COLOURED_Z`` at most max_misses(2000, 1e-3) (level 1e-3). AR(1) with
+    phi = 0.3, 200 draws: at most max_misses(200, 1e-3) missed (z 7-8, sd ~1; measured
+    power 0.95 at phi = 0.2), while the floor over the white noise, the switch used alone
+    until 2026-12-07, stays under its 1.5 in most draws."""
+    rng = np.random.default_rng(11)
+
+    def stretches(y: np.ndarray) -> list[np.ndarray]:
+        if layout == "long":
+            return [y[:300], y[400:700], y[750:]]
+        return np.split(y, 30)
+
+    white = np.array([noise_lag1_z(stretches(rng.standard_normal(900))) for _ in range(2000)])
+    print(f"white: mean {white.mean():.3f}, sd {white.std():.3f}")
+    assert abs(white.mean()) < z_bound(2) / math.sqrt(white.size)
+    assert np.count_nonzero(white > COLOURED_Z) <= max_misses(white.size, 1e-3)
+    coloured = [stretches(_ar1(rng, 900, 0.3)) for _ in range(200)]
+    z = np.array([noise_lag1_z(s) for s in coloured])
+    ratio = np.array([resolution_noise(s) / noise_level(s) for s in coloured])
+    print(f"phi 0.3: z {z.mean():.2f} +- {z.std():.2f}, floor / white {np.median(ratio):.3f}")
+    assert np.count_nonzero(z <= COLOURED_Z) <= max_misses(z.size, 1e-3)
+    assert np.median(ratio) < COLOURED
 
 
 def test_resolution_noise_of_steady_stretches_shorter_than_its_window() -> None:

@@ -198,8 +198,9 @@ def test_ctrl_c_stops_a_sweep_in_one_line_and_the_same_command_resumes_it(
     import signal
     import time
 
-    long = tmp_path / "long.toml"  # tasks of several seconds: running when interrupted
-    long.write_text(TINY.replace("displacement = 3e-9", "displacement = 2e-5"))
+    long = tmp_path / "long.toml"  # tasks of ~20 s: running when interrupted (at 2e-5 m,
+    # ~7 s, CI under load once saw both finish before the signal)
+    long.write_text(TINY.replace("displacement = 3e-9", "displacement = 6e-5"))
     out = tmp_path / "sweep"
     command = [sys.executable, "-m", "nanoblock", "sweep", str(long), "--out", str(out)]
     command += ["--set", "joint.temperature=280,300", "--workers", "2", "--quiet"]
@@ -227,6 +228,24 @@ def test_ctrl_c_stops_a_sweep_in_one_line_and_the_same_command_resumes_it(
     again = sweep_cli(str(long), "--out", str(out), "--set", "joint.temperature=280,300")
     assert again.exit_code == 0 and "2 tasks" in again.output, again.output
     assert [entry["status"] for entry in read_manifest(out)["tasks"]] == ["done", "done"]
+
+
+def test_an_interrupt_after_the_last_task_says_none_is_left(
+    tiny: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Ctrl-C while the cluster shuts down after the last task: the line counts every task
+    done and does not promise to resume anything."""
+    import typer
+
+    from nanoblock.cli import _sweep_interrupt
+
+    out = tmp_path / "sweep"
+    assert sweep_cli(str(tiny), "--out", str(out), "--seeds", "2").exit_code == 0
+    with pytest.raises(typer.Exit) as stopped, _sweep_interrupt(out):
+        raise KeyboardInterrupt
+    assert stopped.value.exit_code == 130
+    line = f"interrupted: 2 of 2 tasks done ({out / MANIFEST}); none is left"
+    assert capsys.readouterr().err.strip() == line
 
 
 ONE_THREAD_AFTER_IMPORT = """

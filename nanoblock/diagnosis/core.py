@@ -7,8 +7,10 @@ gives the same verdict; it is searched for stick-slip (:mod:`.drops`), which no 
 law can fit (verdict ``unstable_sliding``). The noise is measured twice: white noise at the
 sample scale (second differences) and the floor at the model's resolution (the base
 residuals' scatter about their own running mean over 5 % of the travel). When the floor
-exceeds the white noise by 1.5 the noise is *coloured*: residuals are tested against the
-floor, and information criteria count the effective samples n (1 - phi) / (1 + phi) of
+exceeds the white noise by 1.5, or the best fit's residuals in steady sliding, high-passed by that
+running mean, keep a lag-1 autocorrelation beyond white noise's at the 1e-3 level
+(:func:`~.statistics.noise_lag1_z`), the noise is *coloured*: residuals are tested against
+the floor, and information criteria count the effective samples n (1 - phi) / (1 + phi) of
 residuals with lag-1 autocorrelation phi (that of the best-fitting candidate).
 
 Verdict rule. Let IC be that Bayesian information criterion of a fit, and the held-out
@@ -49,10 +51,12 @@ from nanoblock.diagnosis.resample import resample_by_travel
 from nanoblock.diagnosis.simulation import SEEDS, SWITCHES, simulation_check
 from nanoblock.diagnosis.statistics import (
     COLOURED,
+    COLOURED_Z,
     Structure,
     effective_size,
     information_criterion,
     lag1_autocorrelation,
+    noise_lag1_z,
     noise_level,
     resolution_noise,
     structure,
@@ -271,6 +275,8 @@ class _NoiseModel:
 
     white: float
     floor: float
+    lag1_z: float
+    """:func:`~.statistics.noise_lag1_z` of the base's steady stretches (0 off time series)."""
     coloured: bool
     n_effective: float | None
 
@@ -284,16 +290,20 @@ class _NoiseModel:
 
 def _noise_model(measurement: Measurement, residuals: dict[str, list[np.ndarray]]) -> _NoiseModel:
     """White noise of the data, the floor at the model's resolution (time series: from the
-    base residuals) and, for coloured noise, the effective size of the best fit's residuals."""
+    base residuals in steady sliding), the whiteness test of the noise (from the best
+    fit's residuals in steady sliding, so a misfit of the base that bends within the
+    floor's window does not read as colour) and, for coloured noise, the effective size of
+    the best fit's residuals."""
     white = noise_level(measurement.observed)
     if measurement.kind != "time_series":
-        return _NoiseModel(white, white, False, None)
-    floor = resolution_noise(_steady_stretches(measurement, residuals["base"]))
-    if floor <= COLOURED * white:
-        return _NoiseModel(white, floor, False, None)
+        return _NoiseModel(white, white, 0.0, False, None)
     best = min(residuals.values(), key=lambda r: float(sum(np.dot(x, x) for x in r)))
+    floor = resolution_noise(_steady_stretches(measurement, residuals["base"]))
+    lag1_z = noise_lag1_z(_steady_stretches(measurement, best))
+    if floor <= COLOURED * white and lag1_z <= COLOURED_Z:
+        return _NoiseModel(white, floor, lag1_z, False, None)
     n = sum(r.size for r in best)
-    return _NoiseModel(white, floor, True, effective_size(n, lag1_autocorrelation(best)))
+    return _NoiseModel(white, floor, lag1_z, True, effective_size(n, lag1_autocorrelation(best)))
 
 
 def _steady_stretches(measurement: Measurement, residuals: list[np.ndarray]) -> list[np.ndarray]:

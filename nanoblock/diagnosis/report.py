@@ -16,6 +16,7 @@ import xarray as xr
 from nanoblock.diagnosis.catalogue import CATALOGUE
 from nanoblock.diagnosis.core import Candidate, Diagnosis, shortfalls
 from nanoblock.diagnosis.simulation import calibrated_scenarios
+from nanoblock.diagnosis.statistics import COLOURED_Z
 from nanoblock.diagnosis.window_study import window_text
 from nanoblock.toml_writer import scenario_toml
 
@@ -213,10 +214,19 @@ def _closest(diagnosis: Diagnosis) -> str:
     """The misfit against the noise floor and why the closest extensions fall short of
     the verdict rule (:func:`~nanoblock.diagnosis.core.shortfalls`), in sentences."""
     floor = diagnosis.noise_model.get("floor", diagnosis.noise)
+    failed = diagnosis.base.structure.failed
     text = (
         f" Its rms residual is {diagnosis.base.rms:.2g} against a noise floor of {floor:.2g} "
-        "at the model's resolution."
+        "at the model's resolution"
+        + (f"; systematic by {' and '.join(failed)}." if failed else ".")
     )
+    if failed and not any(f.startswith("chi^2") for f in failed):
+        z = diagnosis.noise_model.get("lag1_z", math.nan)
+        text += (
+            " The residuals are no larger than the noise but autocorrelated at its level: a "
+            "misfit as fine as the noise, or noise coloured below the colour test (lag-1 z "
+            f"{z:.1f} in steady sliding, coloured above {COLOURED_Z})."
+        )
     named = [
         f"`{c.id}`: {'; '.join(reasons)}"
         for c in diagnosis.candidates[:CLOSEST]

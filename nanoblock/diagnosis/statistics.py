@@ -21,7 +21,10 @@ RESOLUTION_SAMPLES = 50
 """Width of the running mean that defines the noise at the model's resolution [samples of
 a record resampled to uniform slip: 5 % of a run's travel]."""
 COLOURED = 1.5
-"""Floor over white noise above which the noise counts as coloured."""
+"""Floor over white noise above which the noise counts as coloured (whatever its lag-1)."""
+COLOURED_Z = 3.09
+"""z of :func:`noise_lag1_z` above which the noise counts as coloured: a one-sided level of
+1e-3 on white noise."""
 MAX_LAG1 = 0.99
 """Largest residual autocorrelation used for the effective sample size."""
 
@@ -41,6 +44,28 @@ def noise_level(signals: Sequence[FloatArray]) -> float:
     return float(MAD_TO_SIGMA * np.median(np.abs(centred)) / math.sqrt(6.0))
 
 
+def _high_passed(residuals: Sequence[FloatArray], width: int) -> list[tuple[FloatArray, float]]:
+    """Each stretch's deviations from its centred running mean over ``width`` samples, scaled
+    to the white noise's standard deviation (divided by sqrt(1 - 1/w)), with the correlation
+    of neighbouring deviations on white noise, -(w + 1) / (w (w - 1)) (their running means
+    share w - 1 samples); a stretch no longer than the window (but at least ``width`` / 5)
+    is taken about its own mean (correlation -1 / (w - 1) for its w samples), a shorter
+    one is dropped."""
+    deviations = []
+    for r in residuals:
+        r = np.asarray(r, dtype=float)
+        if r.size <= width:
+            if r.size >= max(width // 5, 2):
+                w = r.size
+                deviations.append(((r - r.mean()) / math.sqrt(1.0 - 1.0 / w), -1.0 / (w - 1)))
+            continue
+        mean = np.convolve(r, np.full(width, 1.0 / width), mode="valid")
+        centre = r[width // 2 : width // 2 + mean.size]
+        white_lag1 = -(width + 1.0) / (width * (width - 1.0))
+        deviations.append(((centre - mean) / math.sqrt(1.0 - 1.0 / width), white_lag1))
+    return deviations
+
+
 def resolution_noise(residuals: Sequence[FloatArray], width: int = RESOLUTION_SAMPLES) -> float:
     """Noise at the model's resolution: the scatter of residuals about their own centred
     running mean over ``width`` samples, which keeps every fluctuation shorter than the
@@ -52,20 +77,28 @@ def resolution_noise(residuals: Sequence[FloatArray], width: int = RESOLUTION_SA
     noise. On AR(1) noise of lag-1 autocorrelation phi a window of w samples keeps about
     1 - (1 + phi) / ((1 - phi) w) of its variance. Units of the signal; the sample-scale
     :func:`noise_level` when every stretch is shorter than ``width`` / 5."""
-    deviations = []
-    for r in residuals:
-        r = np.asarray(r, dtype=float)
-        if r.size <= width:
-            if r.size >= max(width // 5, 2):
-                deviations.append((r - r.mean()) / math.sqrt(1.0 - 1.0 / r.size))
-            continue
-        mean = np.convolve(r, np.full(width, 1.0 / width), mode="valid")
-        centre = r[width // 2 : width // 2 + mean.size]
-        deviations.append((centre - mean) / math.sqrt(1.0 - 1.0 / width))
+    deviations = _high_passed(residuals, width)
     if not deviations:
         return noise_level(residuals)
-    pooled = np.concatenate(deviations)
+    pooled = np.concatenate([d for d, _ in deviations])
     return float(MAD_TO_SIGMA * np.median(np.abs(pooled - np.median(pooled))))
+
+
+def noise_lag1_z(residuals: Sequence[FloatArray], width: int = RESOLUTION_SAMPLES) -> float:
+    """Whiteness test of the noise at the model's resolution: the lag-1 autocorrelation of
+    the residuals' deviations from their running mean (as in :func:`resolution_noise`, so
+    a misfit smooth over ``width`` samples does not count), pooled over stretches, minus its
+    white-noise expectation, times sqrt(n). About N(0, 1) on white noise; on AR(1) noise of
+    lag-1 autocorrelation phi about phi sqrt(n), so it sees colour far below the variance
+    ratio of floor over white noise (phi = 0.3 at 600 samples: z ~ 7, the ratio ~1.2).
+    0 when no stretch is long enough."""
+    deviations = _high_passed(residuals, width)
+    n = sum(d.size for d, _ in deviations)
+    if n < 3:
+        return 0.0
+    lag1 = lag1_autocorrelation([d for d, _ in deviations])
+    expected = sum((d.size - 1) * white for d, white in deviations) / n
+    return float((lag1 - expected) * math.sqrt(n))
 
 
 def effective_size(n: int, lag1: float) -> float:
@@ -90,21 +123,32 @@ class Structure:
     n: int
     coloured: bool = False
     """Whether the noise itself is coloured (its floor at the model's resolution exceeds
-    the sample-scale white noise by ``COLOURED``): then only the variance test applies."""
+    the sample-scale white noise by ``COLOURED``, or its lag-1 test :func:`noise_lag1_z`
+    exceeds ``COLOURED_Z``): then only the variance test applies."""
     n_effective: float | None = None
     """Independent samples behind chi^2 (n for white noise)."""
 
     @property
-    def systematic(self) -> bool:
-        """Whether the residuals show structure beyond the noise: chi^2 above 1 by more
-        than 5 of its standard errors sqrt(2/n_eff) plus a 10 % allowance for the noise
-        estimate, or (white noise only) sign runs / autocorrelation beyond 5 standard
-        errors."""
+    def failed(self) -> list[str]:
+        """The structure tests the residuals fail, in words (empty: within the noise):
+        chi^2 above 1 by more than 5 of its standard errors sqrt(2/n_eff) plus a 10 %
+        allowance for the noise estimate, or (white noise only) sign runs / lag-1
+        autocorrelation beyond 5 standard errors."""
         n = self.n_effective or self.n
         chi2_limit = 1.1 + 5.0 * math.sqrt(2.0 / max(n, 1.0))
-        if self.coloured:
-            return self.chi2_ratio > chi2_limit
-        return self.chi2_ratio > chi2_limit or self.runs_z < -5.0 or self.lag1_z > 5.0
+        failed = []
+        if self.chi2_ratio > chi2_limit:
+            failed.append(f"chi^2 ratio {self.chi2_ratio:.3g} above {chi2_limit:.3g}")
+        if not self.coloured and self.runs_z < -5.0:
+            failed.append(f"sign runs too long (z {self.runs_z:.1f} below -5)")
+        if not self.coloured and self.lag1_z > 5.0:
+            failed.append(f"lag-1 autocorrelation {self.lag1:.2f} (z {self.lag1_z:.1f} above 5)")
+        return failed
+
+    @property
+    def systematic(self) -> bool:
+        """Whether the residuals show structure beyond the noise (:attr:`failed`)."""
+        return bool(self.failed)
 
     def to_json(self) -> dict[str, float | bool | int]:
         return {
